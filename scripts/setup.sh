@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs every build and run dependency of ehlsim from Debian's packages.
+# Idempotent; run as root (or with sudo available) on Debian 12.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libfftw3-dev            # FFT convolution of the deformation integral
+  libtomlplusplus-dev     # configuration files
+  libcli11-dev            # command line
+  libfmt-dev              # formatting
+  libnetcdf-dev netcdf-bin  # fields.nc output (netcdf-bin: ncdump for inspection)
+  nlohmann-json3-dev      # run.json
+  libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
+  python3-matplotlib python3-numpy            # figures (Debian's own python3)
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "setup: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,84 @@
+#pragma once
+// Everything that defines one lubricated-impact run, in dimensionless form
+// (plus the physical inputs when the case was given in physical units).
+//
+// This struct carries values only: defaults, ranges and documentation of every
+// key live once, in the parameter registry (io/Parameters).
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ehlsim {
+
+enum class ViscosityModel { Barus, Roelands };
+enum class DensityModel { Incompressible, DowsonHigginson };
+enum class CycleType { V, W };
+enum class DeformationMethod { Fft, Direct };
+
+/// Physical inputs (SI units) and the reference scales derived from them (model.md).
+struct PhysicalCase {
+  // inputs
+  double reduced_radius_m = 0.0;   ///< R
+  double mass_kg = 0.0;            ///< m
+  double impact_speed_m_s = 0.0;   ///< v0
+  double reduced_modulus_Pa = 0.0; ///< E'
+  double eta0_Pa_s = 0.0;          ///< ambient viscosity
+  double alpha_per_Pa = 0.0;       ///< pressure-viscosity coefficient
+  double rho0_kg_m3 = 0.0;         ///< ambient density
+  // derived scales
+  double delta_star_m = 0.0;
+  double a_star_m = 0.0;
+  double ph_star_Pa = 0.0;
+  double F_star_N = 0.0;
+  double t_bar_s = 0.0;
+};
+
+struct ImpactConfig {
+  // [case] Moes parameters and the dimensionless groups they fix.
+  double M = 100.0;
+  double L = 10.0;
+  double lambda_bar = 0.0;  ///< derived from M unless given
+  double alpha_bar = 0.0;   ///< derived from M, L unless given
+  std::optional<PhysicalCase> physical;  ///< set when a [physical] section was given
+
+  // [lubricant]
+  ViscosityModel viscosity = ViscosityModel::Barus;
+  DensityModel density = DensityModel::Incompressible;
+  double eta0_Pa_s = 0.0;   ///< Roelands: ambient viscosity
+  double roelands_z = 0.0;  ///< Roelands pressure-viscosity index
+  double ph_star_Pa = 0.0;  ///< reference Hertz pressure, for Roelands and Dowson-Higginson
+
+  // [body]
+  bool elastic = true;
+
+  // [grid]
+  int grid_points = 257;
+  double half_width = 1.5;
+
+  // [time]
+  double dT = 0.0;  ///< 0: equal to the mesh size
+  double T_end = std::numeric_limits<double>::infinity();  ///< inf: until lift-off
+  double Delta0 = 1.0;
+  double V0 = 1.0;
+
+  // [surface]
+  double waviness_amplitude = 0.0;
+  double waviness_wavelength = 1.0;
+  double waviness_angle_deg = 0.0;
+
+  // [solver]
+  CycleType cycle = CycleType::V;
+  double tolerance = 1e-8;        ///< on the scaled residual of the finest grid
+  int max_cycles = 30;            ///< cycles per time step before giving up
+  int pre_sweeps = 2;
+  int post_sweeps = 1;
+  int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side
+  DeformationMethod deformation = DeformationMethod::Fft;
+
+  // [output]
+  int snapshot_every = 20;
+  std::vector<double> snapshot_times;
+};
+
+}  // namespace ehlsim

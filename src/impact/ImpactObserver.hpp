@@ -1,0 +1,52 @@
+#pragma once
+// What a running impact simulation reports, step by step, to whoever listens
+// (the command's writers and progress line, a test, a study driver).
+#include <string>
+
+#include "grid/Grid.hpp"
+
+namespace ehlsim {
+
+/// One row of the time series (one time step).
+struct StepRecord {
+  int step = 0;
+  double T = 0.0;
+  double Delta = 0.0;
+  double dDelta_dT = 0.0;
+  double force = 0.0;      ///< Int Int P dX dY
+  double h_center = 0.0;
+  double h_min = 0.0;
+  double p_center = 0.0;
+  double p_max = 0.0;
+  int cycles = 0;          ///< multigrid cycles used in this step
+  double residual = 0.0;   ///< final scaled residual of this step
+};
+
+/// Summary of a finished run.
+struct RunSummary {
+  int steps = 0;
+  bool lifted_off = false;
+  double T_final = 0.0;
+  double T_lift_off = 0.0;      ///< NaN when the run ended before lift-off
+  double rebound_speed = 0.0;   ///< dDelta/dT at lift-off (NaN if no lift-off)
+  double max_force = 0.0;
+  double T_max_force = 0.0;
+  double min_h_center = 0.0;
+  double T_min_h_center = 0.0;
+  double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT
+  double wall_seconds = 0.0;
+};
+
+class ImpactObserver {
+ public:
+  virtual ~ImpactObserver() = default;
+  /// Called once before the first step with the grid the fields live on.
+  virtual void on_start(const Grid2D& /*grid*/) {}
+  /// Called after every converged time step; `snapshot` says whether this step's
+  /// fields are to be stored.
+  virtual void on_step(const StepRecord& /*record*/, const Field& /*P*/, const Field& /*H*/,
+                       bool /*snapshot*/) {}
+  virtual void on_finish(const RunSummary& /*summary*/) {}
+};
+
+}  // namespace ehlsim
