@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "rheology/Models.hpp"
+
 namespace ehlsim {
 
-enum class ViscosityModel { Barus, Roelands };
-enum class DensityModel { Incompressible, DowsonHigginson };
 enum class CycleType { V, W };
 enum class DeformationMethod { Fft, Direct };
 
@@ -75,6 +75,9 @@ struct ImpactConfig {
   int post_sweeps = 1;
   int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side
   DeformationMethod deformation = DeformationMethod::Fft;
+  double switch_ratio = 0.3;        ///< Gauss-Seidel / distributive Jacobi switch
+  double omega_gauss_seidel = 0.6;  ///< under-relaxation of Gauss-Seidel changes
+  double omega_jacobi = 0.25;       ///< under-relaxation of distributive changes
 
   // [output]
   int snapshot_every = 20;

@@ -1,0 +1,218 @@
+#include "elastic/Deformation.hpp"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <stdexcept>
+#include <vector>
+
+namespace ehlsim {
+
+void DeformationOperator::prepare(const Field& P, Field& W) const {
+  if (&P == &W) throw std::invalid_argument("DeformationOperator::apply: P and W must differ");
+  if (P.n() != grid_.n || P.size() != grid_.size())
+    throw std::invalid_argument("DeformationOperator::apply: P is not on the operator's grid");
+  if (W.n() != grid_.n || W.size() != grid_.size()) W = Field(grid_);
+}
+
+// ---------------------------------------------------------------------------
+// Direct sum
+
+void DirectDeformation::apply(const Field& P, Field& W) {
+  prepare(P, W);
+  const int n = grid().n;
+  const double* K = kernel().data();
+  const double* p = P.data();
+  double* w = W.data();
+  const auto row = [n](int j) { return static_cast<std::size_t>(j) * n; };
+
+  // Rows of P that are entirely zero (the boundary, the cavitated region)
+  // contribute nothing; skipping them is exact.
+  std::vector<char> nonzero(static_cast<std::size_t>(n), 0);
+  for (int l = 0; l < n; ++l)
+    nonzero[l] = std::any_of(p + row(l), p + row(l) + n, [](double v) { return v != 0.0; });
+
+  std::fill(w, w + W.size(), 0.0);
+  for (int j = 0; j < n; ++j) {
+    double* wj = w + row(j);
+    for (int l = 0; l < n; ++l) {
+      if (!nonzero[l]) continue;
+      const double* Kr = K + row(j > l ? j - l : l - j);
+      const double* pl = p + row(l);
+      for (int i = 0; i < n; ++i) {
+        double s = 0.0;
+        for (int k = 0; k <= i; ++k) s += Kr[i - k] * pl[k];
+        for (int k = i + 1; k < n; ++k) s += Kr[k - i] * pl[k];
+        wj[i] += s;
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// FFT convolution
+
+namespace {
+
+/// FFTW's planner has global state and is not thread-safe: every plan
+/// creation and destruction done here is serialised.
+std::mutex& fftw_planner_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+struct PlanDeleter {
+  void operator()(fftw_plan_s* plan) const {
+    const std::lock_guard lock(fftw_planner_mutex());
+    fftw_destroy_plan(plan);
+  }
+};
+using Plan = std::unique_ptr<fftw_plan_s, PlanDeleter>;
+
+/// Runs the planner call `create` under the planner mutex; throws on failure.
+template <class Create>
+Plan make_plan(Create&& create) {
+  fftw_plan plan = nullptr;
+  {
+    const std::lock_guard lock(fftw_planner_mutex());
+    plan = create();
+  }
+  if (plan == nullptr) throw std::runtime_error("FftDeformation: FFTW could not create a plan");
+  return Plan(plan);
+}
+
+struct FftwFree {
+  void operator()(void* p) const { fftw_free(p); }
+};
+template <class T>
+using FftwBuffer = std::unique_ptr<T[], FftwFree>;
+
+template <class T>
+FftwBuffer<T> fftw_buffer(std::size_t count) {
+  auto* p = static_cast<T*>(fftw_malloc(sizeof(T) * count));
+  if (p == nullptr) throw std::bad_alloc();
+  return FftwBuffer<T>(p);
+}
+
+/// Smallest even m >= lower (lower even) with no prime factor above 7: the
+/// sizes FFTW handles fastest.  Even, because the kernel transform is a DCT-I
+/// of size m/2 + 1, which is the DFT of an even sequence of period m only for
+/// even m.
+int padded_period(int lower) {
+  for (int m = lower + lower % 2;; m += 2) {
+    int r = m;
+    for (const int f : {2, 3, 5, 7})
+      while (r % f == 0) r /= f;
+    if (r == 1) return m;
+  }
+}
+
+}  // namespace
+
+struct FftDeformation::Impl {
+  int n;        // grid points per side
+  int m;        // padded period per side
+  int mc;       // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
+  FftwBuffer<double> real;           // n rows of m: P in, W out
+  FftwBuffer<fftw_complex> spectrum; // m rows of mc
+  FftwBuffer<double> kernel_hat;     // mc rows of mc: real kernel transform / m^2, ky <= m/2
+  Plan rows_forward, cols_forward, cols_backward, rows_backward;
+
+  Impl(const KernelTable& K, FftPlanning planning)
+      : n(K.n()),
+        m(padded_period(2 * (K.n() - 1))),
+        mc(m / 2 + 1),
+        real(fftw_buffer<double>(static_cast<std::size_t>(n) * m)),
+        spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * mc)),
+        kernel_hat(fftw_buffer<double>(static_cast<std::size_t>(mc) * mc)) {
+    const unsigned flags = planning == FftPlanning::Measure ? FFTW_MEASURE : FFTW_ESTIMATE;
+    fftw_complex* s = spectrum.get();
+    double* r = real.get();
+    // Rows: n real transforms of length m, row stride m in, mc out.
+    rows_forward = make_plan([&] {
+      return fftw_plan_many_dft_r2c(1, &m, n, r, nullptr, 1, m, s, nullptr, 1, mc, flags);
+    });
+    rows_backward = make_plan([&] {
+      return fftw_plan_many_dft_c2r(1, &m, n, s, nullptr, 1, mc, r, nullptr, 1, m, flags);
+    });
+    // Columns: mc complex transforms of length m, in place, element stride mc.
+    cols_forward = make_plan([&] {
+      return fftw_plan_many_dft(1, &m, mc, s, nullptr, mc, 1, s, nullptr, mc, 1, FFTW_FORWARD,
+                                flags);
+    });
+    cols_backward = make_plan([&] {
+      return fftw_plan_many_dft(1, &m, mc, s, nullptr, mc, 1, s, nullptr, mc, 1, FFTW_BACKWARD,
+                                flags);
+    });
+
+    // Kernel transform.  The periodic kernel is the even extension of
+    // K(a, b), a, b = 0..m/2 (zero for a or b >= n), so its DFT is real and
+    // equals the 2-D DCT-I (REDFT00) of that (m/2 + 1)^2 array.
+    double* kh = kernel_hat.get();
+    for (int b = 0; b < mc; ++b)
+      for (int a = 0; a < mc; ++a)
+        kh[static_cast<std::size_t>(b) * mc + a] = (a < n && b < n) ? K(a, b) : 0.0;
+    // ESTIMATE: a one-off transform, and it leaves the filled array intact.
+    const Plan dct = make_plan(
+        [&] { return fftw_plan_r2r_2d(mc, mc, kh, kh, FFTW_REDFT00, FFTW_REDFT00, FFTW_ESTIMATE); });
+    fftw_execute(dct.get());
+    // Fold the 1/m^2 of the unnormalised inverse transform into the kernel.
+    const double scale = 1.0 / (static_cast<double>(m) * m);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(mc) * mc; ++k) kh[k] *= scale;
+  }
+
+  void apply(const double* p, double* w) {
+    const auto un = static_cast<std::size_t>(n);
+    const auto um = static_cast<std::size_t>(m);
+    const auto umc = static_cast<std::size_t>(mc);
+    double* r = real.get();
+    fftw_complex* s = spectrum.get();
+
+    // P into the first n columns of the n data rows; zero padding after.
+    for (std::size_t j = 0; j < un; ++j) {
+      std::copy_n(p + j * un, un, r + j * um);
+      std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
+    }
+    fftw_execute(rows_forward.get());
+    // The padding rows of the spectrum (overwritten by the previous inverse).
+    std::memset(static_cast<void*>(s + un * umc), 0, sizeof(fftw_complex) * (um - un) * umc);
+    fftw_execute(cols_forward.get());
+
+    const double* kh = kernel_hat.get();
+    for (std::size_t ky = 0; ky < um; ++ky) {
+      const double* k = kh + std::min(ky, um - ky) * umc;  // even in ky
+      fftw_complex* row = s + ky * umc;
+      for (std::size_t kx = 0; kx < umc; ++kx) {
+        row[kx][0] *= k[kx];
+        row[kx][1] *= k[kx];
+      }
+    }
+
+    fftw_execute(cols_backward.get());
+    fftw_execute(rows_backward.get());
+    for (std::size_t j = 0; j < un; ++j) std::copy_n(r + j * um, un, w + j * un);
+  }
+};
+
+FftDeformation::FftDeformation(const Grid2D& grid, FftPlanning planning)
+    : DeformationOperator(grid), impl_(std::make_unique<Impl>(kernel(), planning)) {}
+
+FftDeformation::~FftDeformation() = default;
+
+void FftDeformation::apply(const Field& P, Field& W) {
+  prepare(P, W);
+  impl_->apply(P.data(), W.data());
+}
+
+int FftDeformation::padded_size() const { return impl_->m; }
+
+std::unique_ptr<DeformationOperator> make_deformation(const Grid2D& grid, bool use_fft) {
+  if (use_fft) return std::make_unique<FftDeformation>(grid, FftPlanning::Measure);
+  return std::make_unique<DirectDeformation>(grid);
+}
+
+}  // namespace ehlsim

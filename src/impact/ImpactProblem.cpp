@@ -1,0 +1,250 @@
+#include "impact/ImpactProblem.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "dynamics/Newmark.hpp"
+#include "impact/ReynoldsFasLevel.hpp"
+#include "multigrid/Fas.hpp"
+
+namespace ehlsim {
+
+namespace {
+/// BDF coefficients (b0, b1, b2) of d/dT u ~ (b0 u^{n+1} + b1 u^n + b2 u^{n-1}) / dT.
+struct BdfCoefficients {
+  double b0, b1, b2;
+};
+constexpr BdfCoefficients kBdf1{1.0, -1.0, 0.0};
+constexpr BdfCoefficients kBdf2{1.5, -2.0, 0.5};
+
+Lubricant make_lubricant(const ImpactConfig& c) {
+  Lubricant lub;
+  lub.viscosity = c.viscosity;
+  lub.density = c.density;
+  lub.alpha_bar = c.alpha_bar;
+  lub.eta0_Pa_s = c.eta0_Pa_s;
+  lub.roelands_z = c.roelands_z;
+  lub.ph_star_Pa = c.ph_star_Pa;
+  return lub;
+}
+}  // namespace
+
+struct ImpactProblem::Impl {
+  explicit Impl(const ImpactConfig& config);
+
+  RunSummary run(ImpactObserver& observer);
+
+  // Named steps of run().
+  void setup_hierarchy();
+  void set_time_coefficients(double b0);
+  void set_delta(double Delta);
+  /// Solves one time step for the ball state `ball` (at the old time);
+  /// returns the force at the new time.  Throws if the step does not converge.
+  double solve_time_step(int step, const BallState& ball, double force_guess);
+  StepRecord make_record(int step, const BallState& ball, double force) const;
+
+  ImpactConfig cfg;
+  Grid2D grid;
+  double dT;
+  Newmark newmark;
+  std::vector<std::unique_ptr<ReynoldsFasLevel>> levels;
+  std::unique_ptr<multigrid::FasSolver> solver;
+  Field rhoH_now, rhoH_old;  ///< rho H at the last two time levels (finest grid)
+  BdfCoefficients bdf = kBdf1;
+  ImpactProblem::CycleMonitor monitor;
+  int last_cycles = 0;
+  double last_residual = 0.0;
+};
+
+ImpactProblem::Impl::Impl(const ImpactConfig& config)
+    : cfg(config),
+      grid(config.grid_points, config.half_width),
+      dT(config.dT > 0.0 ? config.dT : grid.h()),
+      newmark(dT),
+      rhoH_now(grid),
+      rhoH_old(grid) {
+  setup_hierarchy();
+}
+
+void ImpactProblem::Impl::setup_hierarchy() {
+  const Lubricant lubricant = make_lubricant(cfg);
+  reynolds::OperatorSettings op;
+  op.lambda_bar = cfg.lambda_bar;
+  op.elastic = cfg.elastic;
+  op.use_fft = cfg.deformation == DeformationMethod::Fft;
+  op.waviness = {cfg.waviness_amplitude, cfg.waviness_wavelength, cfg.waviness_angle_deg};
+  reynolds::RelaxationSettings relax;
+  relax.switch_ratio = cfg.switch_ratio;
+  relax.omega_gauss_seidel = cfg.omega_gauss_seidel;
+  relax.omega_jacobi = cfg.omega_jacobi;
+
+  Grid2D g = grid;
+  std::vector<multigrid::FasLevel*> raw;
+  while (true) {
+    levels.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, relax));
+    raw.push_back(levels.back().get());
+    if (g.n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
+    g = g.coarser();
+  }
+  multigrid::FasSettings fas;
+  fas.pre_sweeps = cfg.pre_sweeps;
+  fas.post_sweeps = cfg.post_sweeps;
+  fas.cycle_index = cfg.cycle == CycleType::W ? 2 : 1;
+  solver = std::make_unique<multigrid::FasSolver>(std::move(raw), fas);
+}
+
+void ImpactProblem::Impl::set_time_coefficients(double b0) {
+  for (auto& level : levels) level->op().set_time_step(dT, b0);
+}
+
+void ImpactProblem::Impl::set_delta(double Delta) {
+  for (auto& level : levels) level->op().set_delta(Delta);
+}
+
+double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
+                                            double force_guess) {
+  bdf = step == 1 ? kBdf1 : kBdf2;  // BDF2 needs two earlier levels: BDF1 starts it
+  set_time_coefficients(bdf.b0);
+  Field& f = solver->rhs();
+  const int n = grid.n;
+  f.fill(0.0);
+  for (int j = 1; j < n - 1; ++j)
+    for (int i = 1; i < n - 1; ++i)
+      f(i, j) = (bdf.b1 * rhoH_now(i, j) + bdf.b2 * rhoH_old(i, j)) / dT;
+
+  // The separation at the new time follows from the force at the new time
+  // (Newmark); the coupling is weak (dDelta/dforce = beta dT^2 3/(2 pi)), so a
+  // fixed-point update of Delta after each cycle converges in a few cycles.
+  set_delta(newmark.delta_for_force(ball, force_guess));
+  if (step == 1) solver->full_multigrid();
+  if (monitor) monitor(step, 0, solver->residual_norm());
+
+  reynolds::ReynoldsOperator& fine = levels.front()->op();
+  double force = 0.0;
+  for (int c = 1; c <= cfg.max_cycles; ++c) {
+    solver->cycle();
+    force = fine.force(solver->solution());
+    set_delta(newmark.delta_for_force(ball, force));
+    last_residual = solver->residual_norm();
+    last_cycles = c;
+    if (monitor) monitor(step, c, last_residual);
+    if (!std::isfinite(last_residual))
+      throw std::runtime_error(fmt::format("time step {} (T = {:.5f}): the solution diverged", step,
+                                           ball.T + dT));
+    if (last_residual < cfg.tolerance) return fine.force(solver->solution());
+  }
+  throw std::runtime_error(fmt::format(
+      "time step {} (T = {:.5f}): residual {:.3e} above solver.tolerance = {:.3e} after "
+      "solver.max_cycles = {} cycles",
+      step, ball.T + dT, last_residual, cfg.tolerance, cfg.max_cycles));
+}
+
+StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
+                                            double force) const {
+  const Field& P = solver->solution(0);
+  const Field& H = levels.front()->op().film();
+  const int n = grid.n;
+  const int c = (n - 1) / 2;
+  StepRecord r;
+  r.step = step;
+  r.T = ball.T;
+  r.Delta = ball.Delta;
+  r.dDelta_dT = ball.V;
+  r.force = force;
+  r.h_center = H(c, c);
+  r.p_center = P(c, c);
+  r.h_min = std::numeric_limits<double>::infinity();
+  r.p_max = 0.0;
+  for (int j = 1; j < n - 1; ++j) {
+    for (int i = 1; i < n - 1; ++i) {
+      r.h_min = std::min(r.h_min, H(i, j));
+      r.p_max = std::max(r.p_max, P(i, j));
+    }
+  }
+  r.cycles = last_cycles;
+  r.residual = last_residual;
+  return r;
+}
+
+RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
+  const auto start = std::chrono::steady_clock::now();
+  observer.on_start(grid);
+
+  // Initial state: the ball at Delta0 moving towards the flat, no pressure yet.
+  BallState ball{0.0, cfg.Delta0, -cfg.V0, 0.0};
+  solver->solution().fill(0.0);
+  set_delta(cfg.Delta0);
+  levels.front()->op().update_coefficients(solver->solution());
+  const Field& H0 = levels.front()->op().film();
+  const Field& rho0 = levels.front()->op().density();
+  for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
+  rhoH_old = rhoH_now;
+
+  RunSummary summary;
+  summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
+  summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
+  summary.min_h_center = std::numeric_limits<double>::infinity();
+  double force_now = 0.0, force_before = 0.0;
+  double impulse = 0.0;
+  bool had_pressure = false;
+  for (int step = 1;; ++step) {
+    // Linear extrapolation of the force is the initial guess of the new separation.
+    const double guess = step > 2 ? 2.0 * force_now - force_before : force_now;
+    const double force = solve_time_step(step, ball, guess);
+    ball = newmark.advance(ball, force);
+    impulse += 0.5 * (force_now + force) * dT * kForceToAcceleration;
+    force_before = force_now;
+    force_now = force;
+
+    reynolds::ReynoldsOperator& fine = levels.front()->op();
+    const Field& H = fine.film();
+    const Field& rho = fine.density();
+    rhoH_old = rhoH_now;
+    for (std::size_t k = 0; k < H.size(); ++k) rhoH_now[k] = rho[k] * H[k];
+
+    const StepRecord record = make_record(step, ball, force);
+    if (record.p_max > 0.0) had_pressure = true;
+    const bool lifted_off = had_pressure && ball.V > 0.0 && record.p_max <= 0.0;
+    const bool at_end = ball.T >= cfg.T_end - 1e-9 * dT;
+    const bool snapshot = step % cfg.snapshot_every == 0 || lifted_off || at_end;
+    observer.on_step(record, solver->solution(), H, snapshot);
+
+    summary.steps = step;
+    summary.T_final = ball.T;
+    if (force > summary.max_force) {
+      summary.max_force = force;
+      summary.T_max_force = ball.T;
+    }
+    if (record.h_center < summary.min_h_center) {
+      summary.min_h_center = record.h_center;
+      summary.T_min_h_center = ball.T;
+    }
+    if (lifted_off) {
+      summary.lifted_off = true;
+      summary.T_lift_off = ball.T;
+      summary.rebound_speed = ball.V;
+      break;
+    }
+    if (at_end) break;
+  }
+  summary.impulse = impulse;
+  summary.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  observer.on_finish(summary);
+  return summary;
+}
+
+ImpactProblem::ImpactProblem(const ImpactConfig& config) : impl_(std::make_unique<Impl>(config)) {}
+ImpactProblem::~ImpactProblem() = default;
+RunSummary ImpactProblem::run(ImpactObserver& observer) { return impl_->run(observer); }
+const ImpactConfig& ImpactProblem::config() const { return impl_->cfg; }
+void ImpactProblem::set_cycle_monitor(CycleMonitor monitor) { impl_->monitor = std::move(monitor); }
+
+}  // namespace ehlsim

@@ -1,0 +1,38 @@
+#pragma once
+// The lubricated ball-impact problem (model.md): one class that owns the
+// multigrid hierarchy, the ball state and the history of the film, with run()
+// marching in time until lift-off or T_end.
+#include <functional>
+#include <memory>
+
+#include "impact/ImpactConfig.hpp"
+#include "impact/ImpactObserver.hpp"
+
+namespace ehlsim {
+
+class ImpactProblem {
+ public:
+  /// The config must already be validated and complete (lambda_bar, alpha_bar set).
+  explicit ImpactProblem(const ImpactConfig& config);
+  ~ImpactProblem();
+  ImpactProblem(const ImpactProblem&) = delete;
+  ImpactProblem& operator=(const ImpactProblem&) = delete;
+
+  /// Marches from Delta0 until lift-off (or T_end); reports every step to `observer`.
+  /// Throws std::runtime_error when a time step cannot be solved.
+  RunSummary run(ImpactObserver& observer);
+
+  [[nodiscard]] const ImpactConfig& config() const;
+
+  /// Called after every multigrid cycle with (step, cycle, residual): for
+  /// convergence studies and tests; the residual before the first cycle of a
+  /// step is reported as cycle 0.
+  using CycleMonitor = std::function<void(int step, int cycle, double residual)>;
+  void set_cycle_monitor(CycleMonitor monitor);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ehlsim

@@ -1,0 +1,75 @@
+#pragma once
+// Adapter that presents one grid's Reynolds operator and line relaxation to the
+// generic FAS solver: the only place where the physics meets the multigrid.
+#include <algorithm>
+#include <cstdlib>
+
+#include "multigrid/Fas.hpp"
+#include "reynolds/LineRelaxation.hpp"
+#include "reynolds/ReynoldsOperator.hpp"
+
+namespace ehlsim {
+
+class ReynoldsFasLevel final : public multigrid::FasLevel {
+ public:
+  ReynoldsFasLevel(const Grid2D& grid, const Lubricant& lubricant,
+                   const reynolds::OperatorSettings& op_settings,
+                   const reynolds::RelaxationSettings& relax_settings)
+      : op_(grid, lubricant, op_settings), smoother_(op_, relax_settings), mask_(grid) {}
+
+  reynolds::ReynoldsOperator& op() { return op_; }
+  reynolds::LineRelaxation& smoother() { return smoother_; }
+
+  [[nodiscard]] const Grid2D& grid() const override { return op_.grid(); }
+  void apply(const Field& u, Field& Nu) override { op_.apply(u, Nu); }
+  void residual(const Field& u, const Field& f, Field& r) override {
+    op_.apply(u, r);
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      const double res = f[k] - r[k];
+      // Where P = 0 the equation holds as an inequality: only a residual that
+      // would raise the pressure (res < 0, since dN/dP < 0) is a residual.
+      r[k] = u[k] > 0.0 ? res : std::min(res, 0.0);
+    }
+    zero_boundary(r);
+  }
+  /// The coarse-grid correction is applied only inside the pressurized region
+  /// (the point and its four neighbours have P > 0): the coarse grid cannot
+  /// resolve the free (cavitation) boundary, and its corrections there would
+  /// undo what relaxation found, down to a cycle that stalls.
+  void correct(Field& u, const Field& correction) override {
+    const int n = u.n();
+    for (int j = 1; j < n - 1; ++j) {
+      for (int i = 1; i < n - 1; ++i) {
+        if (u(i, j) > 0.0 && u(i - 1, j) > 0.0 && u(i + 1, j) > 0.0 && u(i, j - 1) > 0.0 &&
+            u(i, j + 1) > 0.0)
+          mask_(i, j) = 1;
+        else
+          mask_(i, j) = 0;
+      }
+    }
+    for (int j = 1; j < n - 1; ++j)
+      for (int i = 1; i < n - 1; ++i)
+        if (mask_(i, j) != 0.0) u(i, j) = std::max(0.0, u(i, j) + correction(i, j));
+  }
+  /// Root mean square of r / |dN/dP| over the interior: the pressure change
+  /// that would remove the residual, so that points where the flow terms are
+  /// huge (thick film, far from the contact) do not dominate the measure.
+  double norm(const Field& r) override { return op_.pressure_scaled_norm(r); }
+  void relax(Field& u, const Field& f, int sweeps) override { smoother_.relax(u, f, sweeps); }
+  void project(Field& u) override {
+    for (std::size_t k = 0; k < u.size(); ++k) u[k] = std::max(u[k], 0.0);
+    zero_boundary(u);
+  }
+
+ private:
+  static void zero_boundary(Field& u) {
+    const int n = u.n();
+    for (int k = 0; k < n; ++k) u(k, 0) = u(k, n - 1) = u(0, k) = u(n - 1, k) = 0.0;
+  }
+
+  reynolds::ReynoldsOperator op_;
+  reynolds::LineRelaxation smoother_;
+  Field mask_;  ///< 1 where the coarse-grid correction applies
+};
+
+}  // namespace ehlsim

@@ -1,0 +1,100 @@
+#include "multigrid/Fas.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "multigrid/Transfer.hpp"
+
+namespace ehlsim::multigrid {
+
+FasSolver::FasSolver(std::vector<FasLevel*> levels, FasSettings settings)
+    : levels_(std::move(levels)), settings_(settings) {
+  if (levels_.empty()) throw std::invalid_argument("FasSolver: no levels");
+  for (std::size_t l = 1; l < levels_.size(); ++l) {
+    if (levels_[l]->grid().n != levels_[l - 1]->grid().coarser().n)
+      throw std::invalid_argument("FasSolver: levels are not a standard coarsening sequence");
+  }
+  for (auto* level : levels_) {
+    u_.emplace_back(level->grid());
+    f_.emplace_back(level->grid());
+    r_.emplace_back(level->grid());
+    u_coarse_old_.emplace_back(level->grid());
+    scratch_.emplace_back(level->grid());
+  }
+}
+
+void FasSolver::cycle() { cycle_on(0); }
+
+void FasSolver::cycle_on(int l) {
+  FasLevel& level = *levels_[l];
+  if (l == num_levels() - 1) {
+    level.relax(u_[l], f_[l], settings_.coarsest_sweeps);
+    return;
+  }
+  level.relax(u_[l], f_[l], settings_.pre_sweeps);
+
+  // FAS coarse problem: N_c(u_c) = N_c(I u) + R (f - N(u)).
+  FasLevel& coarse = *levels_[l + 1];
+  level.residual(u_[l], f_[l], r_[l]);
+  inject(u_[l], u_[l + 1]);
+  restrict_full_weighting(r_[l], f_[l + 1]);
+  coarse.apply(u_[l + 1], scratch_[l + 1]);
+  for (std::size_t k = 0; k < f_[l + 1].size(); ++k) f_[l + 1][k] += scratch_[l + 1][k];
+  u_coarse_old_[l + 1] = u_[l + 1];
+
+  for (int visit = 0; visit < settings_.cycle_index; ++visit) cycle_on(l + 1);
+
+  // Correction: u += P (u_c - I u).
+  Field& correction = scratch_[l + 1];
+  for (std::size_t k = 0; k < correction.size(); ++k)
+    correction[k] = u_[l + 1][k] - u_coarse_old_[l + 1][k];
+  Field& fine_correction = r_[l];  // the residual is not needed any more
+  fine_correction.fill(0.0);
+  prolong_bilinear_add(correction, fine_correction);
+  level.correct(u_[l], fine_correction);
+
+  level.relax(u_[l], f_[l], settings_.post_sweeps);
+}
+
+void FasSolver::full_multigrid() {
+  const int coarsest = num_levels() - 1;
+  // Right-hand sides of the coarse problems: restricted from the finest.
+  for (int l = 0; l < coarsest; ++l) restrict_full_weighting(f_[l], f_[l + 1]);
+  levels_[coarsest]->relax(u_[coarsest], f_[coarsest], settings_.coarsest_sweeps);
+  for (int l = coarsest - 1; l >= 0; --l) {
+    prolong_cubic(u_[l + 1], u_[l]);
+    levels_[l]->project(u_[l]);
+    // Cycle on the sub-hierarchy starting at level l.
+    for (int c = 0; c < settings_.fmg_cycles; ++c) cycle_on(l);
+  }
+}
+
+void FasLevel::correct(Field& u, const Field& correction) {
+  for (std::size_t k = 0; k < u.size(); ++k) u[k] += correction[k];
+  project(u);
+}
+
+double FasLevel::norm(const Field& r) {
+  const int n = r.n();
+  double sum = 0.0;
+  for (int j = 1; j < n - 1; ++j)
+    for (int i = 1; i < n - 1; ++i) sum += r(i, j) * r(i, j);
+  return std::sqrt(sum / ((n - 2.0) * (n - 2.0)));
+}
+
+double FasSolver::residual_norm() {
+  levels_[0]->residual(u_[0], f_[0], r_[0]);
+  if (std::getenv("EHLSIM_DEBUG")) {
+    const int n = r_[0].n();
+    int bi = 0, bj = 0; double bm = 0;
+    for (int j = 1; j < n - 1; ++j)
+      for (int i = 1; i < n - 1; ++i) if (std::abs(r_[0](i, j)) > bm) { bm = std::abs(r_[0](i, j)); bi = i; bj = j; }
+    { int i=27,j=48; if (n==65) std::fprintf(stderr, "DEBUG P(27,48)=%g nb %g %g %g %g r=%g\n", u_[0](i,j), u_[0](i-1,j), u_[0](i+1,j), u_[0](i,j-1), u_[0](i,j+1), r_[0](i,j)); }
+    std::fprintf(stderr, "DEBUG max |r| %g at (%d,%d) P=%g r=%g Pnb=%g %g %g %g\n", bm, bi, bj, u_[0](bi,bj), r_[0](bi,bj), u_[0](bi-1,bj), u_[0](bi+1,bj), u_[0](bi,bj-1), u_[0](bi,bj+1));
+  }
+  return levels_[0]->norm(r_[0]);
+}
+
+}  // namespace ehlsim::multigrid

@@ -1,0 +1,159 @@
+#include "reynolds/LineRelaxation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "reynolds/BandSolve.hpp"
+
+namespace ehlsim::reynolds {
+
+namespace {
+/// Half-bandwidth of the line systems: the flow terms of a distributive change
+/// reach two points along the line; the elastic kernel is truncated there too.
+constexpr int kHalfBand = 2;
+/// Share of a distributive change taken from each of the four neighbours.
+constexpr double kDistribution = 0.25;
+}  // namespace
+
+LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
+    : op_(op), settings_(settings), jacobi_change_(op.grid()) {}
+
+void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
+  for (int s = 0; s < sweeps; ++s) sweep(P, f);
+}
+
+void LineRelaxation::sweep(Field& P, const Field& f) {
+  const int n = op_.grid().n;
+  long gs = 0, jac = 0;
+  const double w = settings_.omega_jacobi;
+  const Field& d = jacobi_change_;
+  // Zebra order: the lines of one colour are independent given the other
+  // colour, so they are relaxed in parallel; the coefficients (and with them
+  // the elastic deformation) are brought up to date before each colour, so
+  // each colour sees every change of the other one, through the flow and the
+  // elastic terms alike.
+  for (int colour = 0; colour < 2; ++colour) {
+    op_.update_coefficients(P);
+    jacobi_change_.fill(0.0);
+    long colour_jac = 0;
+#pragma omp parallel reduction(+ : gs, colour_jac)
+    {
+      std::vector<double> rhs(n - 2);
+      std::vector<char> is_jacobi(n - 2);
+#pragma omp for schedule(static)
+      for (int j = 1 + colour; j < n - 1; j += 2) {
+        relax_line(P, f, j, rhs, is_jacobi);
+        for (int i = 1; i < n - 1; ++i) {
+          if (is_jacobi[i - 1]) {
+            jacobi_change_(i, j) = rhs[i - 1];
+            ++colour_jac;
+          } else {
+            P(i, j) = std::max(0.0, P(i, j) + settings_.omega_gauss_seidel * rhs[i - 1]);
+            ++gs;
+          }
+        }
+      }
+    }
+    jac += colour_jac;
+    if (colour_jac == 0) continue;
+    // Distributive changes: delta at the point, -delta/4 at each neighbour.
+#pragma omp parallel for schedule(static)
+    for (int j = 1; j < n - 1; ++j) {
+      for (int i = 1; i < n - 1; ++i) {
+        const double change =
+            d(i, j) - kDistribution * (d(i - 1, j) + d(i + 1, j) + d(i, j - 1) + d(i, j + 1));
+        if (change != 0.0) P(i, j) = std::max(0.0, P(i, j) + w * change);
+      }
+    }
+  }
+  stats_ = {gs, jac};
+}
+
+void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<double>& rhs,
+                                std::vector<char>& is_jacobi) {
+  const Grid2D& grid = op_.grid();
+  const int n = grid.n;
+  const int m = n - 2;
+  const double h2 = grid.h() * grid.h();
+  const double squeeze = op_.squeeze_coefficient();
+  const Field& xi = op_.xi();
+  const Field& rho = op_.density();
+  const Field& drho = op_.density_derivative();
+  const Field& H = op_.film();
+  const bool elastic = op_.elastic();
+  const double k00 = op_.kernel(0, 0);
+
+  // Elastic kernels along the line: plain (a change at one point) and
+  // distributed (a change with -1/4 at the four neighbours).
+  double kplain[kHalfBand + 1];
+  double kdist[kHalfBand + 1];
+  for (int d = 0; d <= kHalfBand; ++d) {
+    kplain[d] = op_.kernel(d, 0);
+    kdist[d] = op_.kernel(d, 0) -
+               kDistribution * (op_.kernel(d - 1, 0) + op_.kernel(d + 1, 0) + 2.0 * op_.kernel(d, 1));
+  }
+
+  // Face coefficients of the line, divided by h^2: west, east, south, north.
+  thread_local std::vector<double> cw, ce, cs, cn;
+  cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
+  for (int i = 1; i < n - 1; ++i) {
+    const double x = xi(i, j);
+    cw[i - 1] = 0.5 * (x + xi(i - 1, j)) / h2;
+    ce[i - 1] = 0.5 * (x + xi(i + 1, j)) / h2;
+    cs[i - 1] = 0.5 * (x + xi(i, j - 1)) / h2;
+    cn[i - 1] = 0.5 * (x + xi(i, j + 1)) / h2;
+    const double flow = cw[i - 1] + ce[i - 1] + cs[i - 1] + cn[i - 1];
+    // Distributive changes also move the four neighbours: next to a cavitated
+    // point they would fight the projection, so such points use Gauss-Seidel.
+    const bool pressurized = P(i, j) > 0.0 && P(i - 1, j) > 0.0 && P(i + 1, j) > 0.0 &&
+                             P(i, j - 1) > 0.0 && P(i, j + 1) > 0.0;
+    is_jacobi[i - 1] =
+        elastic && pressurized && flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
+    rhs[i - 1] = f(i, j) - op_.apply_at(P, i, j);
+  }
+
+  thread_local BandMatrix A(0, kHalfBand);
+  if (A.size() != m) A = BandMatrix(m, kHalfBand);
+  A.clear();
+  // Row a (point i = a + 1): derivative of N_i with respect to the change of column c.
+  for (int a = 0; a < m; ++a) {
+    const double elastic_scale = -squeeze * rho(a + 1, j);
+    // d N_a / d P at the point itself, its west and east neighbour (flow part).
+    const double self = -(cw[a] + ce[a] + cs[a] + cn[a]) - squeeze * drho(a + 1, j) * H(a + 1, j);
+    const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
+    for (int c = first; c <= last; ++c) {
+      const int d = std::abs(a - c);
+      double value = 0.0;
+      if (!is_jacobi[c]) {
+        // Change e_c.
+        if (c == a) value += self;
+        if (c == a - 1) value += cw[a];
+        if (c == a + 1) value += ce[a];
+        value += elastic_scale * kplain[d];
+      } else {
+        // Change e_c - (e_{c-1} + e_{c+1} + e_{c, j-1} + e_{c, j+1}) / 4.
+        if (c == a) value += self - kDistribution * (cs[a] + cn[a]) - kDistribution * (cw[a] + ce[a]);
+        if (c == a - 1) value += cw[a] - kDistribution * self;
+        if (c == a + 1) value += ce[a] - kDistribution * self;
+        if (c == a - 2) value += -kDistribution * cw[a];
+        if (c == a + 2) value += -kDistribution * ce[a];
+        value += elastic_scale * kdist[d];
+      }
+      A(a, c) = value;
+    }
+  }
+  // Cavitated points whose residual would lower the pressure further stay at
+  // P = 0: fixing them in the line system keeps their neighbours from counting
+  // on a change that the projection would undo.
+  for (int a = 0; a < m; ++a) {
+    if (P(a + 1, j) > 0.0 || rhs[a] < 0.0) continue;
+    const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
+    for (int c = first; c <= last; ++c) A(a, c) = 0.0;
+    A(a, a) = 1.0;
+    rhs[a] = 0.0;
+    is_jacobi[a] = 0;
+  }
+  A.solve(rhs);
+}
+
+}  // namespace ehlsim::reynolds

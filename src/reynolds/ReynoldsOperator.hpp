@@ -1,0 +1,89 @@
+#pragma once
+// The discrete transient Reynolds operator of one time step on one grid
+// (model.md), second order in space:
+//
+//   N(P)_ij = (1/h^2) [ xi_e (P_e - P) - xi_w (P - P_w) + xi_n (P_n - P) - xi_s (P - P_s) ]
+//             - (b0 / dT) rho_ij H_ij
+//
+// with xi = rho H^3 / (eta lambda_bar) at the points and arithmetic means on the
+// faces, H = Delta + X^2/2 + Y^2/2 + waviness + W(P) (W: elastic deformation),
+// and b0 the BDF coefficient of the new time level.  The known terms of the
+// earlier time levels belong to the right-hand side f, so that one time step is
+// the nonlinear problem N(P) = f, P >= 0, P = 0 on the boundary.
+//
+// The operator knows nothing of the solver; it exposes its frozen coefficients
+// (H, rho, xi) for the relaxation.
+#include <memory>
+
+#include "elastic/Deformation.hpp"
+#include "grid/Grid.hpp"
+#include "rheology/Lubricant.hpp"
+
+namespace ehlsim::reynolds {
+
+/// Sinusoidal surface waviness added to the gap: A cos(2 pi (X cos th + Y sin th) / wavelength).
+struct Waviness {
+  double amplitude = 0.0;
+  double wavelength = 1.0;
+  double angle_deg = 0.0;
+};
+
+struct OperatorSettings {
+  double lambda_bar = 1.0;
+  bool elastic = true;     ///< false: rigid bodies, W = 0
+  bool use_fft = true;     ///< FFT convolution (fast) or direct summation (reference)
+  Waviness waviness;
+};
+
+class ReynoldsOperator {
+ public:
+  ReynoldsOperator(const Grid2D& grid, const Lubricant& lubricant,
+                   const OperatorSettings& settings);
+
+  [[nodiscard]] const Grid2D& grid() const { return grid_; }
+  [[nodiscard]] const Lubricant& lubricant() const { return lubricant_; }
+  [[nodiscard]] bool elastic() const { return settings_.elastic; }
+
+  /// BDF coefficient b0 of the new level and the time step (d/dT ~ (b0 u^{n+1} + ...)/dT).
+  void set_time_step(double dT, double b0) { dT_ = dT; b0_ = b0; }
+  [[nodiscard]] double squeeze_coefficient() const { return b0_ / dT_; }
+  void set_delta(double Delta) { delta_ = Delta; }
+  [[nodiscard]] double delta() const { return delta_; }
+
+  /// Recompute deformation, film thickness, density and xi for pressure P.
+  void update_coefficients(const Field& P);
+  /// N(P) at interior points (zero on the boundary); updates the coefficients.
+  void apply(const Field& P, Field& N);
+  /// N(P)_ij at one interior point from the current (frozen) coefficients.
+  [[nodiscard]] double apply_at(const Field& P, int i, int j) const;
+
+  // Coefficients of the last update_coefficients().
+  [[nodiscard]] const Field& film() const { return H_; }
+  [[nodiscard]] const Field& density() const { return rho_; }
+  [[nodiscard]] const Field& xi() const { return xi_; }
+  /// d rho / d P at the points (for the Newton diagonal of compressible fluids).
+  [[nodiscard]] const Field& density_derivative() const { return drho_; }
+  /// Deformation kernel coefficient K(di, dj) of this grid (0 when rigid).
+  [[nodiscard]] double kernel(int di, int dj) const;
+
+  /// |dN_ij / dP_ij| from the frozen coefficients (flow and elastic-squeeze part).
+  [[nodiscard]] double diagonal_at(int i, int j) const;
+  /// Root mean square over the interior of r_ij / |dN_ij/dP_ij|.
+  [[nodiscard]] double pressure_scaled_norm(const Field& r) const;
+
+  /// Total force h^2 sum P (P = 0 on the boundary: the trapezoidal rule).
+  [[nodiscard]] double force(const Field& P) const;
+
+ private:
+  Grid2D grid_;
+  Lubricant lubricant_;
+  OperatorSettings settings_;
+  std::unique_ptr<DeformationOperator> deformation_;
+  double dT_ = 1.0;
+  double b0_ = 1.0;
+  double delta_ = 0.0;
+  Field shape_;  ///< X^2/2 + Y^2/2 + waviness: the undeformed gap without Delta
+  Field W_, H_, rho_, drho_, xi_;
+};
+
+}  // namespace ehlsim::reynolds

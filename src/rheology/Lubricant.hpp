@@ -1,0 +1,60 @@
+#pragma once
+// Pointwise dimensionless viscosity eta_bar = eta/eta0 and density
+// rho_bar = rho/rho0 as functions of the dimensionless pressure P = p/ph*
+// (model.md, "Lubricant models").
+//
+// eta_bar() and rho_bar() are called for every grid point in every relaxation
+// sweep, so they are defined inline here.
+#include <algorithm>
+#include <cmath>
+
+#include "rheology/Models.hpp"
+
+namespace ehlsim {
+
+/// Roelands (1966) reference pressure p0 [Pa] in
+/// eta = eta0 exp{(ln eta0 + 9.67)[-1 + (1 + p/p0)^z]}.
+inline constexpr double kRoelandsP0_Pa = 1.96e8;
+/// Roelands (1966): 9.67 = -ln(eta_inf / (1 Pa s)), with eta_inf = 6.31e-5 Pa s
+/// Roelands' universal asymptotic viscosity, i.e. the law is
+/// ln(eta/eta_inf) = ln(eta0/eta_inf)(1 + p/p0)^z.
+inline constexpr double kRoelandsLnEtaInf = 9.67;
+/// Dowson & Higginson (1966): rho/rho0 = (A + B p)/(A + p), A [Pa] and B below.
+inline constexpr double kDowsonHigginsonA_Pa = 0.59e9;
+/// Dowson & Higginson (1966): the asymptotic density ratio for p -> infinity.
+inline constexpr double kDowsonHigginsonB = 1.34;
+
+struct Lubricant {
+  ViscosityModel viscosity = ViscosityModel::Barus;
+  DensityModel density = DensityModel::Incompressible;
+  double alpha_bar = 0.0;   ///< Barus: alpha ph* (dimensionless)
+  double eta0_Pa_s = 0.0;   ///< Roelands: ambient viscosity [Pa s]
+  double roelands_z = 0.0;  ///< Roelands: pressure-viscosity index
+  double ph_star_Pa = 0.0;  ///< Roelands and Dowson-Higginson: reference Hertz pressure [Pa]
+
+  /// eta/eta0 at dimensionless pressure P.  P < 0 (cavitated, should not be
+  /// passed) counts as 0, so a slightly negative iterate cannot make eta < 1.
+  [[nodiscard]] double eta_bar(double P) const {
+    const double Pc = std::max(P, 0.0);
+    if (viscosity == ViscosityModel::Barus) return std::exp(alpha_bar * Pc);
+    return std::exp((std::log(eta0_Pa_s) + kRoelandsLnEtaInf) *
+                    (std::pow(1.0 + Pc * ph_star_Pa / kRoelandsP0_Pa, roelands_z) - 1.0));
+  }
+
+  /// rho/rho0 at dimensionless pressure P (P < 0 counts as 0).
+  [[nodiscard]] double rho_bar(double P) const {
+    if (density == DensityModel::Incompressible) return 1.0;
+    const double p = std::max(P, 0.0) * ph_star_Pa;
+    return (kDowsonHigginsonA_Pa + kDowsonHigginsonB * p) / (kDowsonHigginsonA_Pa + p);
+  }
+
+  /// Roelands index z that gives the pressure-viscosity coefficient alpha [1/Pa]
+  /// at p = 0: d ln(eta)/dp|0 = z (ln eta0 + 9.67)/p0 = alpha.
+  [[nodiscard]] static double roelands_z_from_alpha(double alpha_per_Pa, double eta0_Pa_s);
+
+  /// Throws std::invalid_argument when a parameter the chosen models need is
+  /// missing or out of range (e.g. Roelands without eta0 or ph*).
+  void validate() const;
+};
+
+}  // namespace ehlsim
