@@ -9,12 +9,15 @@
 #include <string>
 #include <vector>
 
+#include "reynolds/FaceMean.hpp"
+
 #include "rheology/Models.hpp"
 
 namespace ehlsim {
 
 enum class CycleType { V, W };
 enum class DeformationMethod { Fft, Direct };
+
 
 /// Physical inputs (SI units) and the reference scales derived from them (model.md).
 struct PhysicalCase {
@@ -69,15 +72,18 @@ struct ImpactConfig {
 
   // [solver]
   CycleType cycle = CycleType::V;
-  double tolerance = 1e-8;        ///< on the scaled residual of the finest grid
-  int max_cycles = 30;            ///< cycles per time step before giving up
-  int pre_sweeps = 2;
-  int post_sweeps = 1;
+  double tolerance = 1e-5;        ///< on the pressure-scaled residual of the finest grid
+  int max_cycles = 12;            ///< cycles per time step before the step is kept unconverged
+  int pre_sweeps = 3;
+  int post_sweeps = 2;
   int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side
   DeformationMethod deformation = DeformationMethod::Fft;
+  // Relaxation: switch value and under-relaxation factors after Venner & Lubrecht
+  // (2000): about 0.3, 0.4 and 0.2 (model.md).
   double switch_ratio = 0.3;        ///< Gauss-Seidel / distributive Jacobi switch
-  double omega_gauss_seidel = 0.6;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.25;       ///< under-relaxation of distributive changes
+  double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
+  double omega_jacobi = 0.2;        ///< under-relaxation of distributive changes
+  FaceMean face_mean = FaceMean::Arithmetic;
 
   // [output]
   int snapshot_every = 20;

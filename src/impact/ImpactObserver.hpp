@@ -35,6 +35,7 @@ struct RunSummary {
   double T_min_h_center = 0.0;
   double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT
   double wall_seconds = 0.0;
+  int unconverged_steps = 0;    ///< steps that ended at solver.max_cycles above solver.tolerance
 };
 
 class ImpactObserver {

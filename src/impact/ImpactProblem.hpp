@@ -19,7 +19,9 @@ class ImpactProblem {
   ImpactProblem& operator=(const ImpactProblem&) = delete;
 
   /// Marches from Delta0 until lift-off (or T_end); reports every step to `observer`.
-  /// Throws std::runtime_error when a time step cannot be solved.
+  /// Throws std::runtime_error when the iteration of a time step diverges; a
+  /// step that ends at solver.max_cycles above solver.tolerance is kept and
+  /// counted in RunSummary::unconverged_steps.
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;

@@ -2,7 +2,6 @@
 // Adapter that presents one grid's Reynolds operator and line relaxation to the
 // generic FAS solver: the only place where the physics meets the multigrid.
 #include <algorithm>
-#include <cstdlib>
 
 #include "multigrid/Fas.hpp"
 #include "reynolds/LineRelaxation.hpp"

@@ -31,10 +31,6 @@ double sphere_mass(double radius_m, double density_kg_m3) {
   return density_kg_m3 * 4.0 / 3.0 * kPi * radius_m * radius_m * radius_m;
 }
 
-double roelands_z_from_alpha(double alpha_per_Pa, double eta0_Pa_s) {
-  return alpha_per_Pa * kRoelandsP0_Pa / (std::log(eta0_Pa_s) + kRoelandsLnEtaOffset);
-}
-
 PhysicalCase with_reference_scales(PhysicalCase c) {
   const double R = c.reduced_radius_m;
   const double v0 = c.impact_speed_m_s;

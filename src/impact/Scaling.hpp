@@ -17,11 +17,6 @@
 
 namespace ehlsim {
 
-/// Roelands reference pressure p0 [Pa] (model.md, "Lubricant models").
-inline constexpr double kRoelandsP0_Pa = 1.96e8;
-/// The constant in ln(eta0) + 9.67 of the Roelands equation (eta0 in Pa s).
-inline constexpr double kRoelandsLnEtaOffset = 9.67;
-
 /// lambda_bar from the Moes load parameter M (M > 0).
 [[nodiscard]] double moes_lambda_bar(double M);
 /// alpha_bar from the Moes parameters M (> 0) and L (>= 0).
@@ -36,10 +31,6 @@ inline constexpr double kRoelandsLnEtaOffset = 9.67;
 
 /// Mass [kg] of a solid sphere of radius R [m] and density rho [kg/m^3].
 [[nodiscard]] double sphere_mass(double radius_m, double density_kg_m3);
-
-/// Roelands pressure-viscosity index from alpha [1/Pa] and eta0 [Pa s]:
-/// z = alpha p0 / (ln(eta0) + 9.67).  Needs ln(eta0) + 9.67 > 0.
-[[nodiscard]] double roelands_z_from_alpha(double alpha_per_Pa, double eta0_Pa_s);
 
 /// Fills the derived scales (delta*, a*, ph*, F*, t_bar) of a PhysicalCase from
 /// its inputs (R, m, v0, E' must be > 0).  Returns the completed case.

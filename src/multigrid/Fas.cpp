@@ -1,8 +1,6 @@
 #include "multigrid/Fas.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <stdexcept>
 
 #include "multigrid/Transfer.hpp"
@@ -86,14 +84,6 @@ double FasLevel::norm(const Field& r) {
 
 double FasSolver::residual_norm() {
   levels_[0]->residual(u_[0], f_[0], r_[0]);
-  if (std::getenv("EHLSIM_DEBUG")) {
-    const int n = r_[0].n();
-    int bi = 0, bj = 0; double bm = 0;
-    for (int j = 1; j < n - 1; ++j)
-      for (int i = 1; i < n - 1; ++i) if (std::abs(r_[0](i, j)) > bm) { bm = std::abs(r_[0](i, j)); bi = i; bj = j; }
-    { int i=27,j=48; if (n==65) std::fprintf(stderr, "DEBUG P(27,48)=%g nb %g %g %g %g r=%g\n", u_[0](i,j), u_[0](i-1,j), u_[0](i+1,j), u_[0](i,j-1), u_[0](i,j+1), r_[0](i,j)); }
-    std::fprintf(stderr, "DEBUG max |r| %g at (%d,%d) P=%g r=%g Pnb=%g %g %g %g\n", bm, bi, bj, u_[0](bi,bj), r_[0](bi,bj), u_[0](bi-1,bj), u_[0](bi+1,bj), u_[0](bi,bj-1), u_[0](bi,bj+1));
-  }
   return levels_[0]->norm(r_[0]);
 }
 

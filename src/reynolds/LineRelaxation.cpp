@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "reynolds/BandSolve.hpp"
 
@@ -13,6 +14,9 @@ namespace {
 constexpr int kHalfBand = 2;
 /// Share of a distributive change taken from each of the four neighbours.
 constexpr double kDistribution = 0.25;
+/// Passes of the projected line solve; the active set of a line settles in
+/// one or two passes in practice.
+constexpr int kMaxActiveSetPasses = 4;
 }  // namespace
 
 LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
@@ -76,7 +80,6 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
   const int m = n - 2;
   const double h2 = grid.h() * grid.h();
   const double squeeze = op_.squeeze_coefficient();
-  const Field& xi = op_.xi();
   const Field& rho = op_.density();
   const Field& drho = op_.density_derivative();
   const Field& H = op_.film();
@@ -97,11 +100,10 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
   thread_local std::vector<double> cw, ce, cs, cn;
   cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
   for (int i = 1; i < n - 1; ++i) {
-    const double x = xi(i, j);
-    cw[i - 1] = 0.5 * (x + xi(i - 1, j)) / h2;
-    ce[i - 1] = 0.5 * (x + xi(i + 1, j)) / h2;
-    cs[i - 1] = 0.5 * (x + xi(i, j - 1)) / h2;
-    cn[i - 1] = 0.5 * (x + xi(i, j + 1)) / h2;
+    cw[i - 1] = op_.face(i, j, -1, 0) / h2;
+    ce[i - 1] = op_.face(i, j, 1, 0) / h2;
+    cs[i - 1] = op_.face(i, j, 0, -1) / h2;
+    cn[i - 1] = op_.face(i, j, 0, 1) / h2;
     const double flow = cw[i - 1] + ce[i - 1] + cs[i - 1] + cn[i - 1];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
@@ -142,18 +144,39 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
       A(a, c) = value;
     }
   }
-  // Cavitated points whose residual would lower the pressure further stay at
-  // P = 0: fixing them in the line system keeps their neighbours from counting
-  // on a change that the projection would undo.
-  for (int a = 0; a < m; ++a) {
-    if (P(a + 1, j) > 0.0 || rhs[a] < 0.0) continue;
-    const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
-    for (int c = first; c <= last; ++c) A(a, c) = 0.0;
-    A(a, a) = 1.0;
-    rhs[a] = 0.0;
-    is_jacobi[a] = 0;
+  // Projected line solve.  A Gauss-Seidel point whose new pressure would be
+  // negative is fixed at P = 0 (its change becomes -P / omega) and the line is
+  // solved again, so that its neighbours do not count on a change that the
+  // projection would undo; a few passes settle the active set.
+  const double omega = settings_.omega_gauss_seidel;
+  thread_local BandMatrix work(0, kHalfBand);
+  thread_local std::vector<double> residual, fixed_change;
+  residual = rhs;
+  fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
+  for (int a = 0; a < m; ++a)
+    if (P(a + 1, j) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
+  for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
+    work = A;
+    rhs = residual;
+    for (int a = 0; a < m; ++a) {
+      if (std::isnan(fixed_change[a])) continue;
+      const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
+      for (int c = first; c <= last; ++c) work(a, c) = 0.0;
+      work(a, a) = 1.0;
+      rhs[a] = fixed_change[a];
+      is_jacobi[a] = 0;
+    }
+    work.solve(rhs);
+    bool changed = false;
+    for (int a = 0; a < m; ++a) {
+      if (is_jacobi[a] || !std::isnan(fixed_change[a])) continue;
+      if (P(a + 1, j) + omega * rhs[a] < 0.0) {
+        fixed_change[a] = -P(a + 1, j) / omega;
+        changed = true;
+      }
+    }
+    if (!changed) break;
   }
-  A.solve(rhs);
 }
 
 }  // namespace ehlsim::reynolds

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <numbers>
 
 namespace ehlsim::reynolds {
@@ -64,9 +62,8 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
 }
 
 double ReynoldsOperator::apply_at(const Field& P, int i, int j) const {
-  const double xc = xi_(i, j);
-  const double xw = 0.5 * (xc + xi_(i - 1, j)), xe = 0.5 * (xc + xi_(i + 1, j));
-  const double xs = 0.5 * (xc + xi_(i, j - 1)), xn = 0.5 * (xc + xi_(i, j + 1));
+  const double xw = face(i, j, -1, 0), xe = face(i, j, 1, 0);
+  const double xs = face(i, j, 0, -1), xn = face(i, j, 0, 1);
   const double h = grid_.h();
   const double p = P(i, j);
   const double flow = (xe * (P(i + 1, j) - p) - xw * (p - P(i - 1, j)) + xn * (P(i, j + 1) - p) -
@@ -85,8 +82,7 @@ void ReynoldsOperator::apply(const Field& P, Field& N) {
 }
 
 double ReynoldsOperator::diagonal_at(int i, int j) const {
-  const double xc = xi_(i, j);
-  const double flow = (2.0 * xc + 0.5 * (xi_(i - 1, j) + xi_(i + 1, j) + xi_(i, j - 1) + xi_(i, j + 1))) /
+  const double flow = (face(i, j, -1, 0) + face(i, j, 1, 0) + face(i, j, 0, -1) + face(i, j, 0, 1)) /
                       (grid_.h() * grid_.h());
   return flow + (b0_ / dT_) * (rho_(i, j) * kernel(0, 0) + drho_(i, j) * H_(i, j));
 }
@@ -94,15 +90,12 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {
   const int n = grid_.n;
   double sum = 0.0;
-  int bi = 0, bj = 0; double bm = 0;
   for (int j = 1; j < n - 1; ++j) {
     for (int i = 1; i < n - 1; ++i) {
       const double scaled = r(i, j) / diagonal_at(i, j);
-      if (std::abs(scaled) > bm) { bm = std::abs(scaled); bi = i; bj = j; }
       sum += scaled * scaled;
     }
   }
-  if (std::getenv("EHLSIM_DEBUG")) std::fprintf(stderr, "DEBUG scaled max %g at (%d,%d) r=%g diag=%g H=%g xi=%g W=%g\n", bm, bi, bj, r(bi,bj), diagonal_at(bi,bj), H_(bi,bj), xi_(bi,bj), W_(bi,bj));
   return std::sqrt(sum / ((n - 2.0) * (n - 2.0)));
 }
 

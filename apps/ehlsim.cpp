@@ -1,0 +1,193 @@
+// ehlsim: the command line.
+//
+//   ehlsim impact [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--quiet]
+//   ehlsim impact --help        (lists every parameter with default and range)
+//   ehlsim --version
+//
+// Exit codes: 0 success; 1 the run failed (solver, file system); 2 bad input
+// (command line, configuration).  Every error is one line on stderr,
+// "ehlsim: error: <message>".
+//
+// Each subcommand is a pair add_<name>_command (options) / run_<name> (action);
+// further subcommands (spike, study) plug in the same way in main().
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "grid/Grid.hpp"
+#include "impact/ImpactConfig.hpp"
+#include "impact/ImpactProblem.hpp"
+#include "io/Parameters.hpp"
+#include "io/RunOutput.hpp"
+
+namespace {
+
+using namespace ehlsim;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitBadInput = 2;
+
+void print_error(std::string_view message) {
+  std::string line(message);
+  std::replace(line.begin(), line.end(), '\n', ' ');
+  std::replace(line.begin(), line.end(), '\r', ' ');
+  std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
+}
+
+// ---------------------------------------------------------------------------
+// ehlsim impact
+// ---------------------------------------------------------------------------
+
+struct ImpactOptions {
+  std::string config_file;  ///< "" = the built-in default case
+  std::string out_dir = "run";
+  std::vector<std::string> overrides;
+  bool quiet = false;
+};
+
+CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
+  CLI::App* cmd = app.add_subcommand(
+      "impact", "Simulate one lubricated ball impact on a flat (Lubrecht & Venner 2022).");
+  cmd->add_option("config", options.config_file,
+                  "TOML file with the case (default: the paper's case M = 100, L = 10)");
+  cmd->add_option("-o,--out", options.out_dir,
+                  "run directory for timeseries.csv, fields.nc and run.json (created if missing)")
+      ->capture_default_str();
+  cmd->add_option("--set", options.overrides,
+                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  cmd->footer("\n" + describe_parameters());
+  return cmd;
+}
+
+void print_case(const ImpactConfig& c, const std::string& out_dir) {
+  const Grid2D grid(c.grid_points, c.half_width);
+  fmt::print("ehlsim {} impact -> {}\n", EHLSIM_VERSION, out_dir);
+  fmt::print("  case       M = {:.6g}, L = {:.6g} (lambda_bar = {:.6g}, alpha_bar = {:.6g})\n", c.M,
+             c.L, c.lambda_bar, c.alpha_bar);
+  if (c.physical) {
+    const PhysicalCase& p = *c.physical;
+    fmt::print("  physical   R = {:.4g} m, m = {:.4g} kg, v0 = {:.4g} m/s, E' = {:.4g} Pa, "
+               "eta0 = {:.4g} Pa s, alpha = {:.4g} 1/Pa\n",
+               p.reduced_radius_m, p.mass_kg, p.impact_speed_m_s, p.reduced_modulus_Pa, p.eta0_Pa_s,
+               p.alpha_per_Pa);
+    fmt::print("  scales     delta* = {:.4g} m, a* = {:.4g} m, ph* = {:.4g} Pa, F* = {:.4g} N, "
+               "t_bar = {:.4g} s\n",
+               p.delta_star_m, p.a_star_m, p.ph_star_Pa, p.F_star_N, p.t_bar_s);
+  }
+  std::string lubricant = fmt::format("{}, {}", viscosity_model_text(c.viscosity),
+                                      density_model_text(c.density));
+  if (c.viscosity == ViscosityModel::Roelands) {
+    lubricant += fmt::format(" (eta0 = {:.4g} Pa s, z = {:.4g})", c.eta0_Pa_s, c.roelands_z);
+  }
+  if (c.ph_star_Pa > 0.0) lubricant += fmt::format(", ph* = {:.4g} Pa", c.ph_star_Pa);
+  fmt::print("  lubricant  {}\n", lubricant);
+  fmt::print("  body       {}{}\n", c.elastic ? "elastic" : "rigid",
+             c.waviness_amplitude > 0.0
+                 ? fmt::format(", waviness A = {:.4g}, wavelength {:.4g}, angle {:.4g} deg",
+                               c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg)
+                 : std::string());
+  fmt::print("  grid       {}^2 on [-{:g}, {:g}]^2, h = {:.6g}\n", c.grid_points, c.half_width,
+             c.half_width, grid.h());
+  fmt::print("  time       dT = {:.6g}, {}, Delta0 = {:g}, V0 = {:g}\n", effective_time_step(c),
+             std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
+             c.Delta0, c.V0);
+  fmt::print("  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
+             "deformation {}\n",
+             cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
+             c.coarsest_points, deformation_method_text(c.deformation));
+  fmt::print("  output     fields every {} steps{}\n", c.snapshot_every,
+             c.snapshot_times.empty() ? std::string()
+                                      : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));
+  std::fflush(stdout);
+}
+
+void print_summary(const RunSummary& s, const RunOutput& output) {
+  if (s.lifted_off) {
+    fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
+  } else {
+    fmt::print("no lift-off by T = {:.6g}\n", s.T_final);
+  }
+  fmt::print("max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
+             s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
+  fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps, output.snapshots_written(),
+             output.elapsed_seconds(), output.directory().string());
+}
+
+int run_impact(const ImpactOptions& options) {
+  ImpactConfig config;
+  try {
+    std::optional<std::filesystem::path> file;
+    if (!options.config_file.empty()) file = options.config_file;
+    config = load_config(file, options.overrides);
+  } catch (const ConfigError& e) {
+    print_error(e.what());
+    return kExitBadInput;
+  }
+  if (!options.quiet) print_case(config, options.out_dir);
+
+  const nlohmann::json invocation = {
+      {"config_file", options.config_file.empty() ? nlohmann::json(nullptr)
+                                                  : nlohmann::json(options.config_file)},
+      {"overrides", options.overrides},
+      {"out", options.out_dir}};
+  RunOutput output(options.out_dir, config, !options.quiet, invocation);
+  ImpactProblem problem(config);
+  const RunSummary summary = problem.run(output);
+  if (!output.committed()) output.on_finish(summary);
+  if (!options.quiet) print_summary(summary, output);
+  return kExitOk;
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"ehlsim: lubricated ball impact on a flat (elastohydrodynamic lubrication)", "ehlsim"};
+  app.set_version_flag("--version", std::string("ehlsim ") + EHLSIM_VERSION);
+  app.require_subcommand(1);
+
+  ImpactOptions impact;
+  CLI::App* impact_cmd = add_impact_command(app, impact);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) {
+      return app.exit(e);  // --help, --version
+    }
+    print_error(e.what());
+    return kExitBadInput;
+  }
+  if (impact_cmd->parsed()) return run_impact(impact);
+  print_error("no command given (try ehlsim --help)");
+  return kExitBadInput;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const ehlsim::ConfigError& e) {
+    print_error(e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    print_error(e.what());
+    return kExitFailure;
+  } catch (...) {
+    print_error("unknown failure");
+    return kExitFailure;
+  }
+}

@@ -1,0 +1,56 @@
+#include "io/AtomicFile.hpp"
+
+#include <cerrno>
+#include <fstream>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include <fmt/format.h>
+
+namespace ehlsim {
+
+namespace {
+constexpr int kJsonIndent = 2;
+}  // namespace
+
+PartialFile::PartialFile(std::filesystem::path final_path)
+    : final_path_(std::move(final_path)), part_path_(final_path_.string() + kSuffix) {}
+
+PartialFile::~PartialFile() {
+  if (!committed_) {
+    std::error_code ec;  // nothing to report from a destructor
+    std::filesystem::remove(part_path_, ec);
+  }
+}
+
+void PartialFile::commit() {
+  if (committed_) return;
+  std::error_code ec;
+  std::filesystem::rename(part_path_, final_path_, ec);
+  if (ec) {
+    throw std::runtime_error(fmt::format("cannot rename '{}' to '{}': {}", part_path_.string(),
+                                         final_path_.string(), ec.message()));
+  }
+  committed_ = true;
+}
+
+void write_json_atomic(const std::filesystem::path& path, const nlohmann::json& json) {
+  PartialFile file(path);
+  {
+    std::ofstream out(file.part_path(), std::ios::binary | std::ios::trunc);
+    if (!out) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", file.part_path().string(),
+                                           std::generic_category().message(errno)));
+    }
+    out << json.dump(kJsonIndent) << '\n';
+    out.close();
+    if (!out) {
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", file.part_path().string(),
+                                           std::generic_category().message(errno)));
+    }
+  }
+  file.commit();
+}
+
+}  // namespace ehlsim

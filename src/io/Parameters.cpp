@@ -1,0 +1,976 @@
+#include "io/Parameters.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "grid/Grid.hpp"
+#include "impact/Scaling.hpp"
+#include "rheology/Lubricant.hpp"
+
+namespace ehlsim {
+
+ConfigError::ConfigError(const std::string& message, std::string key)
+    : std::runtime_error(message), key_(std::move(key)) {}
+
+// ---------------------------------------------------------------------------
+// Enumerations <-> TOML strings
+// ---------------------------------------------------------------------------
+
+namespace {
+constexpr std::string_view kBarus = "barus";
+constexpr std::string_view kRoelands = "roelands";
+constexpr std::string_view kIncompressible = "incompressible";
+constexpr std::string_view kDowsonHigginson = "dowson-higginson";
+constexpr std::string_view kCycleV = "V";
+constexpr std::string_view kCycleW = "W";
+constexpr std::string_view kFft = "fft";
+constexpr std::string_view kDirect = "direct";
+
+/// Source name given to the values of --set overrides.
+constexpr std::string_view kOverrideOrigin = "--set";
+}  // namespace
+
+std::string_view viscosity_model_text(ViscosityModel model) {
+  return model == ViscosityModel::Roelands ? kRoelands : kBarus;
+}
+std::string_view density_model_text(DensityModel model) {
+  return model == DensityModel::DowsonHigginson ? kDowsonHigginson : kIncompressible;
+}
+std::string_view cycle_type_text(CycleType cycle) { return cycle == CycleType::W ? kCycleW : kCycleV; }
+std::string_view deformation_method_text(DeformationMethod method) {
+  return method == DeformationMethod::Direct ? kDirect : kFft;
+}
+
+// ---------------------------------------------------------------------------
+// The registry
+// ---------------------------------------------------------------------------
+
+namespace {
+
+Bound above(double v) { return {v, false}; }
+Bound at_least(double v) { return {v, true}; }
+Bound at_most(double v) { return {v, true}; }
+
+ParameterSpec real(std::string key, std::optional<double> def, std::string default_text,
+                   std::optional<Bound> lower, std::optional<Bound> upper, std::string units,
+                   std::string doc) {
+  ParameterSpec s;
+  s.key = std::move(key);
+  s.type = ParameterType::Float;
+  if (def) s.default_value = *def;
+  s.default_text = std::move(default_text);
+  s.lower = lower;
+  s.upper = upper;
+  s.units = std::move(units);
+  s.doc = std::move(doc);
+  return s;
+}
+
+ParameterSpec integer(std::string key, int def, std::optional<Bound> lower,
+                      std::optional<Bound> upper, bool power_of_two_plus_one, std::string doc) {
+  ParameterSpec s;
+  s.key = std::move(key);
+  s.type = ParameterType::Int;
+  s.default_value = def;
+  s.lower = lower;
+  s.upper = upper;
+  s.power_of_two_plus_one = power_of_two_plus_one;
+  s.doc = std::move(doc);
+  return s;
+}
+
+ParameterSpec boolean(std::string key, bool def, std::string doc) {
+  ParameterSpec s;
+  s.key = std::move(key);
+  s.type = ParameterType::Bool;
+  s.default_value = def;
+  s.doc = std::move(doc);
+  return s;
+}
+
+ParameterSpec choice(std::string key, std::string_view def, std::vector<std::string> choices,
+                     std::string doc) {
+  ParameterSpec s;
+  s.key = std::move(key);
+  s.type = ParameterType::Enum;
+  s.default_value = std::string(def);
+  s.choices = std::move(choices);
+  s.doc = std::move(doc);
+  return s;
+}
+
+ParameterSpec real_array(std::string key, std::optional<Bound> lower, std::string doc) {
+  ParameterSpec s;
+  s.key = std::move(key);
+  s.type = ParameterType::FloatArray;
+  s.default_value = std::vector<double>{};
+  s.lower = lower;
+  s.doc = std::move(doc);
+  return s;
+}
+
+constexpr double kPoissonMax = 0.5;
+// The defaults are those of ImpactConfig: declared once, there.
+const ImpactConfig kDefaults{};
+const double kDefaultM = kDefaults.M;
+const double kDefaultL = kDefaults.L;
+const int kDefaultGridPoints = kDefaults.grid_points;
+const double kDefaultHalfWidth = kDefaults.half_width;
+const double kDefaultDelta0 = kDefaults.Delta0;
+const double kDefaultV0 = kDefaults.V0;
+const double kDefaultWavelength = kDefaults.waviness_wavelength;
+const int kDefaultSnapshotEvery = kDefaults.snapshot_every;
+const double kDefaultTolerance = kDefaults.tolerance;
+const int kDefaultMaxCycles = kDefaults.max_cycles;
+const int kDefaultPreSweeps = kDefaults.pre_sweeps;
+const int kDefaultPostSweeps = kDefaults.post_sweeps;
+const int kDefaultCoarsestPoints = kDefaults.coarsest_points;
+constexpr std::string_view kArithmetic = "arithmetic";
+constexpr std::string_view kHarmonic = "harmonic";
+
+std::vector<ParameterSpec> build_registry() {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
+  std::vector<ParameterSpec> r;
+  // [case]
+  r.push_back(real("case.M", kDefaultM, "", above(0), none, "",
+                   "Moes load parameter; sets lambda_bar = (128 pi^3 / (3 M^4))^(1/3)"));
+  r.push_back(real("case.L", kDefaultL, "", at_least(0), none, "",
+                   "Moes lubricant parameter; sets alpha_bar = (L / pi) (3 M / 2)^(1/3)"));
+  r.push_back(real("case.lambda_bar", no_default, "from case.M", above(0), none, "",
+                   "12 eta0 R^2 / (a*^2 t_bar ph*); alternative to case.M (not both)"));
+  r.push_back(real("case.alpha_bar", no_default, "from case.M and case.L", at_least(0), none, "",
+                   "alpha ph*; alternative to case.L (not both)"));
+  // [physical]
+  r.push_back(real("physical.reduced_radius", no_default, "none", above(0), none, "m",
+                   "reduced radius of curvature R (or give physical.ball_radius)"));
+  r.push_back(real("physical.ball_radius", no_default, "none", above(0), none, "m",
+                   "ball radius; a ball on a flat has R = ball radius"));
+  r.push_back(real("physical.ball_mass", no_default, "none", above(0), none, "kg",
+                   "ball mass m (or give physical.ball_density)"));
+  r.push_back(real("physical.ball_density", no_default, "none", above(0), none, "kg/m^3",
+                   "ball density; m = density 4/3 pi R^3"));
+  r.push_back(real("physical.impact_speed", no_default, "none", above(0), none, "m/s",
+                   "approach speed v0"));
+  r.push_back(real("physical.reduced_modulus", no_default, "from E1, nu1, E2, nu2", above(0), none,
+                   "Pa", "reduced modulus E' (or give E1, nu1, E2, nu2)"));
+  r.push_back(real("physical.E1", no_default, "none", above(0), none, "Pa",
+                   "Young's modulus of the ball"));
+  r.push_back(real("physical.nu1", no_default, "none", at_least(0), at_most(kPoissonMax), "",
+                   "Poisson's ratio of the ball"));
+  r.push_back(real("physical.E2", no_default, "none", above(0), none, "Pa",
+                   "Young's modulus of the flat"));
+  r.push_back(real("physical.nu2", no_default, "none", at_least(0), at_most(kPoissonMax), "",
+                   "Poisson's ratio of the flat"));
+  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
+                   "ambient viscosity of the lubricant"));
+  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
+                   "pressure-viscosity coefficient (alpha_bar = alpha ph*)"));
+  r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
+                   "ambient lubricant density (recorded only: the model uses rho / rho0)"));
+  // [lubricant]
+  r.push_back(choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
+                     "viscosity law: barus exp(alpha_bar P), or roelands (needs eta0, z, ph_star)"));
+  r.push_back(choice("lubricant.density", kIncompressible,
+                     {std::string(kIncompressible), std::string(kDowsonHigginson)},
+                     "density law: incompressible, or dowson-higginson (needs ph_star)"));
+  r.push_back(real("lubricant.eta0", no_default, "physical.eta0", above(0), none, "Pa s",
+                   "roelands: ambient viscosity"));
+  r.push_back(real("lubricant.z", no_default, "from lubricant.alpha", at_least(0), none, "",
+                   "roelands: pressure-viscosity index z (or give lubricant.alpha)"));
+  r.push_back(real("lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star",
+                   at_least(0), none, "1/Pa",
+                   "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
+  r.push_back(real("lubricant.ph_star", no_default, "ph* of [physical]", above(0), none, "Pa",
+                   "reference Hertz pressure, needed by roelands and dowson-higginson"));
+  // [body]
+  r.push_back(boolean("body.elastic", true,
+                      "elastic deformation of the surfaces (false: rigid bodies)"));
+  // [grid]
+  r.push_back(integer("grid.points", kDefaultGridPoints, at_least(kMinGridPoints),
+                      at_most(kMaxGridPoints), true, "points per side of the square grid"));
+  r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), none, "",
+                   "the domain is [-half_width, half_width]^2 (unit: a*)"));
+  // [time]
+  r.push_back(real("time.dT", no_default, "the mesh size", above(0), none, "", "time step"));
+  {
+    ParameterSpec t_end = real("time.T_end", no_default, "until lift-off", above(0), none, "",
+                               "end time; inf: until lift-off");
+    t_end.allow_infinite = true;
+    r.push_back(std::move(t_end));
+  }
+  r.push_back(real("time.Delta0", kDefaultDelta0, "", above(0), none, "",
+                   "initial separation Delta(0) (unit: delta*)"));
+  r.push_back(real("time.V0", kDefaultV0, "", above(0), none, "",
+                   "initial approach speed -dDelta/dT(0) (unit: v0)"));
+  // [surface]
+  r.push_back(real("surface.waviness_amplitude", 0.0, "", at_least(0), none, "",
+                   "amplitude A_w of a cosine waviness added to H (0: smooth)"));
+  r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), none, "",
+                   "wavelength of the waviness"));
+  r.push_back(real("surface.waviness_angle_deg", 0.0, "", none, none, "deg",
+                   "direction of the waviness wave vector, from the X axis"));
+  // [output]
+  r.push_back(integer("output.snapshot_every", kDefaultSnapshotEvery, at_least(1), none, false,
+                      "store P and H every this many time steps"));
+  r.push_back(real_array("output.snapshot_times", at_least(0),
+                         "also store the first step at or after each of these times"));
+  // [solver]
+  r.push_back(choice("solver.cycle", kCycleV, {std::string(kCycleV), std::string(kCycleW)},
+                     "multigrid cycle type"));
+  r.push_back(real("solver.tolerance", kDefaultTolerance, "", above(0), none, "",
+                   "a step has converged when the scaled finest-grid residual is below this"));
+  r.push_back(integer("solver.max_cycles", kDefaultMaxCycles, at_least(1), none, false,
+                      "multigrid cycles per time step before giving up"));
+  r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
+                      "relaxation sweeps before the coarse-grid correction"));
+  r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
+                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
+  r.push_back(integer("solver.coarsest_points", kDefaultCoarsestPoints, at_least(kMinCoarsestPoints),
+                      at_most(kMaxGridPoints), true,
+                      "points per side of the coarsest multigrid level (<= grid.points)"));
+  r.push_back(choice("solver.deformation", kFft, {std::string(kFft), std::string(kDirect)},
+                     "deformation integrals: fft (zero-padded FFT convolution) or direct"));
+  r.push_back(real("solver.switch_ratio", kDefaults.switch_ratio, "", above(0), none, "",
+                   "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
+                   "times the elastic-squeeze coefficient, else by distributive Jacobi"));
+  r.push_back(real("solver.omega_gauss_seidel", kDefaults.omega_gauss_seidel, "", above(0),
+                   at_most(1), "", "under-relaxation of the Gauss-Seidel line changes"));
+  r.push_back(real("solver.omega_jacobi", kDefaults.omega_jacobi, "", above(0), at_most(1), "",
+                   "under-relaxation of the distributive Jacobi line changes"));
+  r.push_back(choice("solver.face_mean", kArithmetic,
+                     {std::string(kArithmetic), std::string(kHarmonic)},
+                     "flow coefficient on a cell face: arithmetic (Venner & Lubrecht) or harmonic "
+                     "mean of the two points"));
+  return r;
+}
+
+std::string format_number(double v) { return fmt::format("{:g}", v); }
+
+std::string quoted_list(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& item : items) {
+    if (!out.empty()) out += ", ";
+    out += '"' + item + '"';
+  }
+  return out;
+}
+
+/// "> 0", ">= 0", "< 1", "in [0, 0.5]", "" for a plain interval.
+std::string interval_text(const std::optional<Bound>& lower, const std::optional<Bound>& upper) {
+  if (lower && upper) {
+    return fmt::format("in {}{}, {}{}", lower->inclusive ? "[" : "(", format_number(lower->value),
+                       format_number(upper->value), upper->inclusive ? "]" : ")");
+  }
+  if (lower) return fmt::format("{} {}", lower->inclusive ? ">=" : ">", format_number(lower->value));
+  if (upper) return fmt::format("{} {}", upper->inclusive ? "<=" : "<", format_number(upper->value));
+  return {};
+}
+
+bool in_interval(const std::optional<Bound>& lower, const std::optional<Bound>& upper, double v) {
+  if (std::isnan(v)) return false;
+  if (lower && !(lower->inclusive ? v >= lower->value : v > lower->value)) return false;
+  if (upper && !(upper->inclusive ? v <= upper->value : v < upper->value)) return false;
+  return true;
+}
+
+}  // namespace
+
+std::string_view ParameterSpec::section() const {
+  const std::string_view k = key;
+  return k.substr(0, k.find('.'));
+}
+
+std::string_view ParameterSpec::name() const {
+  const std::string_view k = key;
+  return k.substr(k.find('.') + 1);
+}
+
+std::string ParameterSpec::allowed() const {
+  switch (type) {
+    case ParameterType::Bool:
+      return "true or false";
+    case ParameterType::Enum:
+      return "one of " + quoted_list(choices);
+    case ParameterType::FloatArray: {
+      const std::string range = interval_text(lower, upper);
+      return range.empty() ? "an array of numbers" : "an array of numbers " + range;
+    }
+    case ParameterType::Int: {
+      if (power_of_two_plus_one && lower && upper) {
+        return fmt::format("2^k + 1 between {} and {}", format_number(lower->value),
+                           format_number(upper->value));
+      }
+      const std::string range = interval_text(lower, upper);
+      return range.empty() ? "an integer" : range;
+    }
+    case ParameterType::Float: {
+      const std::string range = interval_text(lower, upper);
+      return range.empty() ? "a finite number" : range;
+    }
+  }
+  return {};
+}
+
+std::string ParameterSpec::default_description() const {
+  if (!default_value) return default_text.empty() ? "none" : default_text;
+  return std::visit(
+      [](const auto& v) -> std::string {
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          return v ? "true" : "false";
+        } else if constexpr (std::is_same_v<T, int>) {
+          return std::to_string(v);
+        } else if constexpr (std::is_same_v<T, double>) {
+          return format_number(v);
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return '"' + v + '"';
+        } else {
+          std::string out = "[";
+          for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + format_number(v[i]);
+          return out + "]";
+        }
+      },
+      *default_value);
+}
+
+const std::vector<SectionSpec>& parameter_sections() {
+  static const std::vector<SectionSpec> sections = {
+      {"case", "Moes parameters of the impact (dimensionless case)"},
+      {"physical", "the case in SI units (ball on a flat), instead of [case]: M, L follow from it"},
+      {"lubricant", "viscosity and density laws"},
+      {"body", "the solids"},
+      {"grid", "the square computational domain"},
+      {"time", "time stepping and initial conditions (units: t_bar, delta*)"},
+      {"surface", "optional surface waviness"},
+      {"output", "what is written to the run directory"},
+      {"solver", "multigrid settings"},
+  };
+  return sections;
+}
+
+const std::vector<ParameterSpec>& parameter_registry() {
+  static const std::vector<ParameterSpec> registry = build_registry();
+  return registry;
+}
+
+const ParameterSpec* find_parameter(std::string_view key) {
+  const auto& registry = parameter_registry();
+  const auto it = std::find_if(registry.begin(), registry.end(),
+                               [&](const ParameterSpec& s) { return s.key == key; });
+  return it == registry.end() ? nullptr : &*it;
+}
+
+// ---------------------------------------------------------------------------
+// Reading: TOML tree -> validated values
+// ---------------------------------------------------------------------------
+
+namespace {
+
+bool is_known_section(std::string_view name) {
+  const auto& sections = parameter_sections();
+  return std::any_of(sections.begin(), sections.end(),
+                     [&](const SectionSpec& s) { return s.name == name; });
+}
+
+std::string section_list() {
+  std::string out;
+  for (const auto& s : parameter_sections()) out += (out.empty() ? "" : ", ") + s.name;
+  return out;
+}
+
+std::string keys_in_section(std::string_view section) {
+  std::string out;
+  for (const auto& s : parameter_registry()) {
+    if (s.section() == section) out += (out.empty() ? "" : ", ") + std::string(s.name());
+  }
+  return out;
+}
+
+/// A value as the user wrote it, for messages (TOML-like syntax).
+std::string node_text(const toml::node& node) {
+  if (node.is_table()) return "{...}";
+  if (const auto* v = node.as_boolean()) return v->get() ? "true" : "false";
+  if (const auto* v = node.as_integer()) return std::to_string(v->get());
+  if (const auto* v = node.as_floating_point()) return fmt::format("{}", v->get());
+  if (const auto* v = node.as_string()) return '"' + v->get() + '"';
+  if (const auto* a = node.as_array()) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < a->size(); ++i) out += (i ? ", " : "") + node_text(*a->get(i));
+    return out + "]";
+  }
+  std::ostringstream os;
+  node.visit([&](const auto& v) {
+    if constexpr (!toml::is_table<decltype(v)>) os << v;
+  });
+  return os.str();
+}
+
+/// Where a value came from: "file.toml:LINE:COL" or "--set".
+std::string node_origin(const toml::node& node) {
+  const toml::source_region& src = node.source();
+  if (src.path && *src.path != kOverrideOrigin) {
+    return fmt::format("{}:{}:{}", *src.path, src.begin.line, src.begin.column);
+  }
+  return std::string(kOverrideOrigin);
+}
+
+std::string origin_suffix(const std::string& origin) {
+  return origin.empty() ? std::string() : " (" + origin + ")";
+}
+
+/// One validated input.
+struct Given {
+  ParameterValue value;
+  std::string text;    ///< as written
+  std::string origin;  ///< "file:line:col" or "--set"
+};
+
+[[noreturn]] void fail_value(const std::string& key, const std::string& text,
+                             const std::string& problem, const std::string& origin) {
+  throw ConfigError(fmt::format("{} = {}: {}{}", key, text, problem, origin_suffix(origin)), key);
+}
+
+std::optional<double> number_of(const toml::node& node) {
+  if (const auto* v = node.as_integer()) return static_cast<double>(v->get());
+  if (const auto* v = node.as_floating_point()) return v->get();
+  return std::nullopt;
+}
+
+std::string with_space(const std::string& s) { return s.empty() ? s : " " + s; }
+
+Given convert(const ParameterSpec& spec, const toml::node& node) {
+  Given g;
+  g.text = node_text(node);
+  g.origin = node_origin(node);
+  const auto fail = [&](const std::string& problem) {
+    fail_value(spec.key, g.text, problem, g.origin);
+  };
+  switch (spec.type) {
+    case ParameterType::Bool: {
+      const auto* v = node.as_boolean();
+      if (!v) fail("must be true or false");
+      g.value = v->get();
+      break;
+    }
+    case ParameterType::Enum: {
+      const auto* v = node.as_string();
+      if (!v || std::find(spec.choices.begin(), spec.choices.end(), v->get()) == spec.choices.end()) {
+        fail("must be " + spec.allowed());
+      }
+      g.value = v->get();
+      break;
+    }
+    case ParameterType::Float: {
+      const std::string range = interval_text(spec.lower, spec.upper);
+      const std::optional<double> v = number_of(node);
+      if (!v || std::isnan(*v)) fail("must be a number" + with_space(range));
+      if (std::isinf(*v) && !(spec.allow_infinite && *v > 0)) {
+        fail("must be a finite number" + with_space(range));
+      }
+      if (!in_interval(spec.lower, spec.upper, *v)) fail("must be " + range);
+      g.value = *v;
+      break;
+    }
+    case ParameterType::Int: {
+      std::optional<double> v;
+      if (const auto* i = node.as_integer()) {
+        v = static_cast<double>(i->get());
+      } else if (const auto* f = node.as_floating_point();
+                 f && std::isfinite(f->get()) && std::trunc(f->get()) == f->get()) {
+        v = f->get();  // an integral float such as 257.0
+      }
+      if (!v) {
+        const std::string allowed = spec.allowed();
+        fail(allowed == "an integer" ? "must be an integer" : "must be an integer " + allowed);
+      }
+      const bool fits = *v >= static_cast<double>(std::numeric_limits<int>::min()) &&
+                        *v <= static_cast<double>(std::numeric_limits<int>::max());
+      if (!fits) fail("is too large (must fit in a 32-bit integer)");
+      const bool ok = in_interval(spec.lower, spec.upper, *v) &&
+                      (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
+      if (!ok) fail("must be " + spec.allowed());
+      g.value = static_cast<int>(*v);
+      break;
+    }
+    case ParameterType::FloatArray: {
+      std::vector<double> values;
+      if (const std::optional<double> single = number_of(node)) {
+        values.push_back(*single);  // a single number is a one-entry array
+      } else if (const auto* a = node.as_array()) {
+        for (const auto& element : *a) {
+          const std::optional<double> v = number_of(element);
+          if (!v) fail("must be " + spec.allowed());
+          values.push_back(*v);
+        }
+      } else {
+        fail("must be " + spec.allowed());
+      }
+      const std::string range = interval_text(spec.lower, spec.upper);
+      for (const double v : values) {
+        if (!std::isfinite(v)) fail("every entry must be a finite number" + with_space(range));
+        if (!in_interval(spec.lower, spec.upper, v)) fail("every entry must be " + range);
+      }
+      g.value = std::move(values);
+      break;
+    }
+  }
+  return g;
+}
+
+std::string read_config_text(const std::filesystem::path& path) {
+  const auto cannot_read = [&](const std::string& reason) {
+    return ConfigError(fmt::format("cannot read config file '{}': {}", path.string(), reason));
+  };
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw cannot_read("is a directory");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!file) throw cannot_read(std::generic_category().message(errno));
+  std::string text;
+  constexpr std::size_t kChunk = 1 << 16;
+  std::vector<char> buffer(kChunk);
+  std::size_t got = 0;
+  while ((got = std::fread(buffer.data(), 1, buffer.size(), file.get())) > 0) {
+    text.append(buffer.data(), got);
+  }
+  if (std::ferror(file.get())) throw cannot_read(std::generic_category().message(errno));
+  return text;
+}
+
+std::string one_line(std::string_view text) {
+  std::string out(text);
+  std::replace(out.begin(), out.end(), '\n', ' ');
+  std::replace(out.begin(), out.end(), '\r', ' ');
+  return out;
+}
+
+toml::table parse_config_file(const std::filesystem::path& path) {
+  const std::string text = read_config_text(path);
+  try {
+    return toml::parse(text, std::string_view(path.string()));
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(fmt::format("{}:{}:{}: {}", path.string(), e.source().begin.line,
+                                  e.source().begin.column, one_line(e.description())));
+  }
+}
+
+/// Puts one `section.name=value` override into the tree.
+void apply_override(toml::table& root, const std::string& assignment) {
+  const std::size_t eq = assignment.find('=');
+  const auto trim = [](std::string_view s) {
+    constexpr std::string_view kSpace = " \t";
+    const std::size_t b = s.find_first_not_of(kSpace);
+    if (b == std::string_view::npos) return std::string();
+    return std::string(s.substr(b, s.find_last_not_of(kSpace) - b + 1));
+  };
+  const std::string key = eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
+  if (key.empty()) {
+    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20", assignment));
+  }
+  const std::string value = trim(std::string_view(assignment).substr(eq + 1));
+
+  // The value in TOML syntax; anything that is not a single TOML value is a string.
+  std::optional<toml::table> parsed;
+  try {
+    parsed = toml::parse("v = " + value, kOverrideOrigin);
+  } catch (const toml::parse_error&) {
+    parsed.reset();
+  }
+  if (parsed && (parsed->size() != 1 || !parsed->contains("v"))) parsed.reset();
+
+  const std::size_t dot = key.find('.');
+  toml::table* target = &root;
+  std::string name = key;
+  if (dot != std::string::npos) {
+    const std::string section = key.substr(0, dot);
+    name = key.substr(dot + 1);
+    toml::node* existing = root.get(section);
+    if (!existing) {
+      root.insert(section, toml::table{});
+      existing = root.get(section);
+    }
+    target = existing->as_table();
+    if (!target) {
+      fail_value(section, node_text(*existing), fmt::format("must be a table (section [{}])", section),
+                 node_origin(*existing));
+    }
+  }
+  if (parsed) {
+    parsed->get("v")->visit([&](auto&& node) { target->insert_or_assign(name, std::move(node)); });
+  } else {
+    target->insert_or_assign(name, value);
+  }
+}
+
+using GivenMap = std::map<std::string, Given, std::less<>>;
+
+/// Checks the structure (sections, keys) first, then every value.
+GivenMap collect(const toml::table& root) {
+  for (auto&& [section_key, section_node] : root) {
+    const std::string section(section_key.str());
+    const auto* table = section_node.as_table();
+    if (!is_known_section(section)) {
+      if (table && !table->empty()) {
+        const auto first = table->cbegin();
+        const std::string key = section + "." + std::string(first->first.str());
+        throw ConfigError(fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}",
+                                      key, section, section_list(),
+                                      origin_suffix(node_origin(first->second))),
+                          key);
+      }
+      if (table) {
+        throw ConfigError(fmt::format("unknown section '[{}]' (known sections: {}){}", section,
+                                      section_list(), origin_suffix(node_origin(section_node))),
+                          section);
+      }
+      throw ConfigError(
+          fmt::format("unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
+                      section, section_list(), origin_suffix(node_origin(section_node))),
+          section);
+    }
+    if (!table) {
+      fail_value(section, node_text(section_node), fmt::format("must be a table (section [{}])", section),
+                 node_origin(section_node));
+    }
+    for (auto&& [name, node] : *table) {
+      const std::string key = section + "." + std::string(name.str());
+      if (!find_parameter(key)) {
+        throw ConfigError(fmt::format("unknown key '{}' (known keys in [{}]: {}){}", key, section,
+                                      keys_in_section(section), origin_suffix(node_origin(node))),
+                          key);
+      }
+    }
+  }
+  GivenMap given;
+  for (auto&& [section_key, section_node] : root) {
+    for (auto&& [name, node] : *section_node.as_table()) {
+      const std::string key = std::string(section_key.str()) + "." + std::string(name.str());
+      given.emplace(key, convert(*find_parameter(key), node));
+    }
+  }
+  return given;
+}
+
+/// Typed access to the validated inputs, falling back to the registry defaults.
+class Inputs {
+ public:
+  explicit Inputs(GivenMap given) : given_(std::move(given)) {}
+
+  [[nodiscard]] const Given* given(std::string_view key) const {
+    const auto it = given_.find(key);
+    return it == given_.end() ? nullptr : &it->second;
+  }
+  [[nodiscard]] bool has(std::string_view key) const { return given(key) != nullptr; }
+  [[nodiscard]] bool any_in_section(std::string_view section) const {
+    return std::any_of(given_.begin(), given_.end(), [&](const auto& entry) {
+      return std::string_view(entry.first).substr(0, entry.first.find('.')) == section;
+    });
+  }
+
+  template <typename T>
+  [[nodiscard]] T get(std::string_view key) const {
+    if (const Given* g = given(key)) return std::get<T>(g->value);
+    const ParameterSpec* spec = find_parameter(key);
+    if (!spec || !spec->default_value) {
+      throw std::logic_error("parameter registry: no default for '" + std::string(key) + "'");
+    }
+    return std::get<T>(*spec->default_value);
+  }
+  [[nodiscard]] double real(std::string_view key) const { return get<double>(key); }
+  [[nodiscard]] int integer(std::string_view key) const { return get<int>(key); }
+  [[nodiscard]] std::optional<double> optional_real(std::string_view key) const {
+    if (const Given* g = given(key)) return std::get<double>(g->value);
+    return std::nullopt;
+  }
+  /// A value that is required in this context.
+  [[nodiscard]] double required_real(const std::string& key, const std::string& why) const {
+    if (const Given* g = given(key)) return std::get<double>(g->value);
+    throw ConfigError(fmt::format("{} is required {}", key, why), key);
+  }
+
+  /// "key = value: problem (origin)" for a given key.
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const {
+    const Given* g = given(key);
+    if (!g) throw ConfigError(fmt::format("{}: {}", key, problem), key);
+    fail_value(key, g->text, problem, g->origin);
+  }
+
+ private:
+  GivenMap given_;
+};
+
+void assemble_case(const Inputs& in, ImpactConfig& c) {
+  static constexpr std::string_view case_keys[] = {"case.M", "case.L", "case.lambda_bar",
+                                                   "case.alpha_bar"};
+  if (in.any_in_section("physical")) {
+    for (const auto key : case_keys) {
+      if (in.has(key)) {
+        in.fail(std::string(key),
+                "cannot be combined with a [physical] section (M, L, lambda_bar and alpha_bar are "
+                "computed from it)");
+      }
+    }
+    const std::string why = "with a [physical] section";
+    const auto exclusive = [&](const std::string& a, const std::string& b) {
+      if (in.has(a) && in.has(b)) in.fail(b, fmt::format("give either {} or {}, not both", a, b));
+      if (!in.has(a) && !in.has(b)) {
+        throw ConfigError(fmt::format("{} (or {}) is required {}", a, b, why), a);
+      }
+      return in.has(a) ? a : b;
+    };
+    PhysicalCase p;
+    p.reduced_radius_m = in.real(exclusive("physical.ball_radius", "physical.reduced_radius"));
+    p.mass_kg = exclusive("physical.ball_mass", "physical.ball_density") == "physical.ball_mass"
+                    ? in.real("physical.ball_mass")
+                    : sphere_mass(p.reduced_radius_m, in.real("physical.ball_density"));
+    p.impact_speed_m_s = in.required_real("physical.impact_speed", why);
+    static constexpr std::string_view modulus_keys[] = {"physical.E1", "physical.nu1", "physical.E2",
+                                                        "physical.nu2"};
+    if (in.has("physical.reduced_modulus")) {
+      for (const auto key : modulus_keys) {
+        if (in.has(key)) in.fail(std::string(key), "give either physical.reduced_modulus or E1, nu1, E2, nu2, not both");
+      }
+      p.reduced_modulus_Pa = in.real("physical.reduced_modulus");
+    } else {
+      const std::string why_modulus = why + " (or give physical.reduced_modulus)";
+      const double E1 = in.required_real("physical.E1", why_modulus);
+      const double nu1 = in.required_real("physical.nu1", why_modulus);
+      const double E2 = in.required_real("physical.E2", why_modulus);
+      const double nu2 = in.required_real("physical.nu2", why_modulus);
+      p.reduced_modulus_Pa = reduced_modulus(E1, nu1, E2, nu2);
+    }
+    p.eta0_Pa_s = in.required_real("physical.eta0", why);
+    p.alpha_per_Pa = in.required_real("physical.alpha", why);
+    p.rho0_kg_m3 = in.optional_real("physical.rho0").value_or(0.0);
+    p = with_reference_scales(p);
+    const MoesGroups g = moes_groups(p);
+    c.M = g.M;
+    c.L = g.L;
+    c.lambda_bar = g.lambda_bar;
+    c.alpha_bar = g.alpha_bar;
+    c.physical = p;
+    return;
+  }
+  if (in.has("case.lambda_bar") && in.has("case.M")) {
+    in.fail("case.lambda_bar", "cannot be given together with case.M (give one of them)");
+  }
+  if (in.has("case.alpha_bar") && in.has("case.L")) {
+    in.fail("case.alpha_bar", "cannot be given together with case.L (give one of them)");
+  }
+  if (const auto lambda_bar = in.optional_real("case.lambda_bar")) {
+    c.lambda_bar = *lambda_bar;
+    c.M = moes_M(*lambda_bar);
+  } else {
+    c.M = in.real("case.M");
+    c.lambda_bar = moes_lambda_bar(c.M);
+  }
+  if (const auto alpha_bar = in.optional_real("case.alpha_bar")) {
+    c.alpha_bar = *alpha_bar;
+    c.L = moes_L(c.lambda_bar, *alpha_bar);
+  } else {
+    c.L = in.real("case.L");
+    c.alpha_bar = moes_alpha_bar(c.M, c.L);
+  }
+  c.physical.reset();
+}
+
+void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
+  c.viscosity = in.get<std::string>("lubricant.viscosity") == kRoelands ? ViscosityModel::Roelands
+                                                                      : ViscosityModel::Barus;
+  c.density = in.get<std::string>("lubricant.density") == kDowsonHigginson
+                  ? DensityModel::DowsonHigginson
+                  : DensityModel::Incompressible;
+  const bool roelands = c.viscosity == ViscosityModel::Roelands;
+  const bool dowson_higginson = c.density == DensityModel::DowsonHigginson;
+  const std::string user = roelands ? "lubricant.viscosity = \"roelands\""
+                                    : "lubricant.density = \"dowson-higginson\"";
+
+  // Inputs the [physical] section already fixes.
+  if (c.physical) {
+    for (const char* key : {"lubricant.ph_star", "lubricant.eta0", "lubricant.alpha"}) {
+      if (in.has(key)) in.fail(key, "is given by the [physical] section; remove one of them");
+    }
+  }
+  c.ph_star_Pa = c.physical ? c.physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
+  c.eta0_Pa_s = c.physical ? c.physical->eta0_Pa_s : in.optional_real("lubricant.eta0").value_or(0.0);
+  c.roelands_z = 0.0;
+  if ((roelands || dowson_higginson) && !(c.ph_star_Pa > 0.0)) {
+    throw ConfigError(fmt::format("lubricant.ph_star is required by {} (reference Hertz pressure "
+                                  "[Pa]; or give a [physical] section)",
+                                  user),
+                      "lubricant.ph_star");
+  }
+  if (!roelands) return;
+  if (!(c.eta0_Pa_s > 0.0)) {
+    throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
+                                  "give a [physical] section)",
+                                  user),
+                      "lubricant.eta0");
+  }
+  if (!(std::log(c.eta0_Pa_s) + kRoelandsLnEtaInf > 0.0)) {
+    const std::string key = c.physical ? "physical.eta0" : "lubricant.eta0";
+    in.fail(key, fmt::format("must be > {:g} Pa s for the Roelands law (ln(eta0) + {} > 0)",
+                             std::exp(-kRoelandsLnEtaInf), kRoelandsLnEtaInf));
+  }
+  if (in.has("lubricant.z") && in.has("lubricant.alpha")) {
+    in.fail("lubricant.alpha", "give either lubricant.z or lubricant.alpha, not both");
+  }
+  if (const auto z = in.optional_real("lubricant.z")) {
+    c.roelands_z = *z;
+  } else {
+    // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
+    const double alpha = c.physical ? c.physical->alpha_per_Pa
+                                    : in.optional_real("lubricant.alpha").value_or(c.alpha_bar / c.ph_star_Pa);
+    c.roelands_z = Lubricant::roelands_z_from_alpha(alpha, c.eta0_Pa_s);
+  }
+}
+
+void assemble_rest(const Inputs& in, ImpactConfig& c) {
+  c.elastic = in.get<bool>("body.elastic");
+  c.grid_points = in.integer("grid.points");
+  c.half_width = in.real("grid.half_width");
+  c.dT = in.optional_real("time.dT").value_or(0.0);
+  c.T_end = in.optional_real("time.T_end").value_or(std::numeric_limits<double>::infinity());
+  c.Delta0 = in.real("time.Delta0");
+  c.V0 = in.real("time.V0");
+  c.waviness_amplitude = in.real("surface.waviness_amplitude");
+  c.waviness_wavelength = in.real("surface.waviness_wavelength");
+  c.waviness_angle_deg = in.real("surface.waviness_angle_deg");
+  c.snapshot_every = in.integer("output.snapshot_every");
+  c.snapshot_times = in.get<std::vector<double>>("output.snapshot_times");
+  c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
+  c.tolerance = in.real("solver.tolerance");
+  c.max_cycles = in.integer("solver.max_cycles");
+  c.pre_sweeps = in.integer("solver.pre_sweeps");
+  c.post_sweeps = in.integer("solver.post_sweeps");
+  c.coarsest_points = in.integer("solver.coarsest_points");
+  c.switch_ratio = in.real("solver.switch_ratio");
+  c.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
+  c.omega_jacobi = in.real("solver.omega_jacobi");
+  c.face_mean = in.get<std::string>("solver.face_mean") == kHarmonic ? FaceMean::Harmonic
+                                                                    : FaceMean::Arithmetic;
+  c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
+                                                                      : DeformationMethod::Fft;
+
+  if (c.coarsest_points > c.grid_points) {
+    in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", c.grid_points));
+  }
+  if (c.pre_sweeps + c.post_sweeps < 1) {
+    const std::string key = in.has("solver.post_sweeps") ? "solver.post_sweeps" : "solver.pre_sweeps";
+    in.fail(key, fmt::format("solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are {} and {})",
+                             c.pre_sweeps, c.post_sweeps));
+  }
+}
+
+}  // namespace
+
+ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
+                         const std::vector<std::string>& overrides) {
+  toml::table root = file ? parse_config_file(*file) : toml::table{};
+  for (const auto& assignment : overrides) apply_override(root, assignment);
+  const Inputs inputs(collect(root));
+  ImpactConfig config;
+  assemble_case(inputs, config);
+  assemble_lubricant(inputs, config);
+  assemble_rest(inputs, config);
+  return config;
+}
+
+// ---------------------------------------------------------------------------
+// Help and echo
+// ---------------------------------------------------------------------------
+
+std::string describe_parameters() {
+  std::string out =
+      "Parameters: in CONFIG.toml write [section] then name = value; on the command line\n"
+      "--set section.name=VALUE (VALUE in TOML syntax, a bare word is a string; applied after\n"
+      "the file, in order). Defaults give the paper's case M = 100, L = 10 on 257^2 points.\n";
+  const auto type_name = [](const ParameterSpec& s) -> std::string {
+    switch (s.type) {
+      case ParameterType::Float: return "float";
+      case ParameterType::Int: return "integer";
+      case ParameterType::Bool: return "bool";
+      case ParameterType::Enum: return "string";
+      case ParameterType::FloatArray: return "float array";
+    }
+    return {};
+  };
+  for (const auto& section : parameter_sections()) {
+    out += fmt::format("\n[{}]  {}\n", section.name, section.doc);
+    for (const auto& s : parameter_registry()) {
+      if (s.section() != section.name) continue;
+      std::string type = type_name(s);
+      if (!s.units.empty()) type += " [" + s.units + "]";
+      std::string allowed = s.allowed();
+      if (s.type == ParameterType::Float && s.allow_infinite) allowed += " or inf";
+      out += fmt::format("  {} = {}  ({}, {})\n      {}\n", s.key, s.default_description(), type,
+                         allowed, s.doc);
+    }
+  }
+  return out;
+}
+
+double effective_time_step(const ImpactConfig& config) {
+  if (config.dT > 0.0) return config.dT;
+  return Grid2D(config.grid_points, config.half_width).h();
+}
+
+nlohmann::json effective_parameters_json(const ImpactConfig& c) {
+  using nlohmann::json;
+  json j;
+  j["case"] = {{"M", c.M}, {"L", c.L}, {"lambda_bar", c.lambda_bar}, {"alpha_bar", c.alpha_bar}};
+  if (c.physical) {
+    const PhysicalCase& p = *c.physical;
+    j["physical"] = {{"reduced_radius", p.reduced_radius_m}, {"ball_mass", p.mass_kg},
+                     {"impact_speed", p.impact_speed_m_s}, {"reduced_modulus", p.reduced_modulus_Pa},
+                     {"eta0", p.eta0_Pa_s},                 {"alpha", p.alpha_per_Pa}};
+    if (p.rho0_kg_m3 > 0.0) j["physical"]["rho0"] = p.rho0_kg_m3;
+    j["scales"] = {{"delta_star_m", p.delta_star_m}, {"a_star_m", p.a_star_m},
+                   {"ph_star_Pa", p.ph_star_Pa},     {"F_star_N", p.F_star_N},
+                   {"t_bar_s", p.t_bar_s}};
+  }
+  j["lubricant"] = {{"viscosity", viscosity_model_text(c.viscosity)},
+                    {"density", density_model_text(c.density)}};
+  if (c.viscosity == ViscosityModel::Roelands) {
+    j["lubricant"]["eta0"] = c.eta0_Pa_s;
+    j["lubricant"]["z"] = c.roelands_z;
+  }
+  if (c.ph_star_Pa > 0.0) j["lubricant"]["ph_star"] = c.ph_star_Pa;
+  j["body"] = {{"elastic", c.elastic}};
+  j["grid"] = {{"points", c.grid_points}, {"half_width", c.half_width}};
+  j["time"] = {{"dT", effective_time_step(c)},
+               {"T_end", std::isfinite(c.T_end) ? json(c.T_end) : json(nullptr)},
+               {"Delta0", c.Delta0},
+               {"V0", c.V0}};
+  j["surface"] = {{"waviness_amplitude", c.waviness_amplitude},
+                  {"waviness_wavelength", c.waviness_wavelength},
+                  {"waviness_angle_deg", c.waviness_angle_deg}};
+  j["output"] = {{"snapshot_every", c.snapshot_every}, {"snapshot_times", c.snapshot_times}};
+  j["solver"] = {{"cycle", cycle_type_text(c.cycle)},
+                 {"tolerance", c.tolerance},
+                 {"max_cycles", c.max_cycles},
+                 {"pre_sweeps", c.pre_sweeps},
+                 {"post_sweeps", c.post_sweeps},
+                 {"coarsest_points", c.coarsest_points},
+                 {"deformation", deformation_method_text(c.deformation)},
+                 {"switch_ratio", c.switch_ratio},
+                 {"omega_gauss_seidel", c.omega_gauss_seidel},
+                 {"omega_jacobi", c.omega_jacobi},
+                 {"face_mean", c.face_mean == FaceMean::Harmonic ? kHarmonic : kArithmetic}};
+  return j;
+}
+
+}  // namespace ehlsim

@@ -1,0 +1,123 @@
+#pragma once
+// The parameter registry: every input key of an impact run is declared once
+// here (dotted name, type, default, allowed range, one-line documentation).
+// The registry drives the TOML reader, the `--set key=value` overrides, the
+// `--help` text and the echo of the effective values into run.json and fields.nc.
+//
+// Keys are "section.name"; in a TOML file they are written
+//
+//   [case]
+//   M = 100
+//
+// and on the command line as `--set case.M=100` (the value in TOML syntax;
+// a bare word is taken as a string, so `--set lubricant.viscosity=roelands`
+// works without quotes).  Overrides are applied after the file, in order.
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "impact/ImpactConfig.hpp"
+
+namespace ehlsim {
+
+/// A bad input: unknown key, wrong type, value out of range, inconsistent
+/// combination, unreadable or malformed file.  what() is one line that names
+/// the full dotted key, the value and what is allowed, e.g.
+/// "case.M = -3: must be > 0 (case.toml:2:5)".
+class ConfigError : public std::runtime_error {
+ public:
+  explicit ConfigError(const std::string& message, std::string key = {});
+  /// The dotted key the error is about ("" for file-level errors).
+  [[nodiscard]] const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
+
+enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
+
+/// A parameter value as the registry stores it (defaults, validated inputs).
+using ParameterValue = std::variant<bool, int, double, std::string, std::vector<double>>;
+
+/// One end of an allowed interval.
+struct Bound {
+  double value = 0.0;
+  bool inclusive = false;
+};
+
+struct ParameterSpec {
+  std::string key;                              ///< "section.name"
+  ParameterType type = ParameterType::Float;
+  std::optional<ParameterValue> default_value;  ///< none: optional input or derived
+  std::string default_text;                     ///< shown by --help when there is no default value
+  std::optional<Bound> lower;                   ///< Float, Int, FloatArray entries
+  std::optional<Bound> upper;
+  bool power_of_two_plus_one = false;           ///< Int: 2^k + 1
+  bool allow_infinite = false;                  ///< Float: +inf allowed
+  std::vector<std::string> choices;             ///< Enum: the allowed strings
+  std::string units;                            ///< physical units, "" if dimensionless
+  std::string doc;                              ///< one line
+
+  [[nodiscard]] std::string_view section() const;
+  [[nodiscard]] std::string_view name() const;
+  /// What is allowed, as in the error messages: "> 0", "in [0, 0.5]",
+  /// "one of \"barus\", \"roelands\"", "2^k + 1 between 9 and 4097", ...
+  [[nodiscard]] std::string allowed() const;
+  /// The default as --help shows it (TOML syntax, or a description).
+  [[nodiscard]] std::string default_description() const;
+};
+
+struct SectionSpec {
+  std::string name;
+  std::string doc;
+};
+
+/// Grid sizes the solver accepts: 2^k + 1 between these bounds.
+inline constexpr int kMinGridPoints = 9;
+inline constexpr int kMaxGridPoints = 4097;
+/// Smallest coarsest multigrid level.
+inline constexpr int kMinCoarsestPoints = 5;
+
+/// The sections, in the order of --help and of the echo.
+[[nodiscard]] const std::vector<SectionSpec>& parameter_sections();
+/// Every key, grouped by section in the order of parameter_sections().
+[[nodiscard]] const std::vector<ParameterSpec>& parameter_registry();
+/// The spec of a dotted key, nullptr if there is none.
+[[nodiscard]] const ParameterSpec* find_parameter(std::string_view key);
+
+/// Reads the optional TOML file, applies the `key=value` overrides, validates
+/// everything and returns a complete config: lambda_bar, alpha_bar, M and L all
+/// filled (from [case] or from [physical]), the Roelands/Dowson-Higginson inputs
+/// resolved.  time.dT stays 0 when not given (meaning: the mesh size) and
+/// time.T_end stays +inf when not given (meaning: until lift-off).
+/// Throws ConfigError on any bad input.
+[[nodiscard]] ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
+                                       const std::vector<std::string>& overrides);
+
+/// The registry as text for --help: every key with its default, range and doc.
+[[nodiscard]] std::string describe_parameters();
+
+/// The effective values of a config, as nested objects by section
+/// {"case": {"M": ..., ...}, "lubricant": {...}, ...}.  Derived values are
+/// included: all of M, L, lambda_bar, alpha_bar; for a physical case the
+/// reduced inputs under "physical" and the reference scales under "scales".
+/// time.dT is the effective step (the mesh size when not given); time.T_end is
+/// null when the run goes until lift-off.
+[[nodiscard]] nlohmann::json effective_parameters_json(const ImpactConfig& config);
+
+/// The time step the run uses: config.dT, or the mesh size when dT == 0.
+[[nodiscard]] double effective_time_step(const ImpactConfig& config);
+
+/// The TOML strings of the enumerations (as in the input files).
+[[nodiscard]] std::string_view viscosity_model_text(ViscosityModel model);
+[[nodiscard]] std::string_view density_model_text(DensityModel model);
+[[nodiscard]] std::string_view cycle_type_text(CycleType cycle);
+[[nodiscard]] std::string_view deformation_method_text(DeformationMethod method);
+
+}  // namespace ehlsim

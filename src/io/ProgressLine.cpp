@@ -1,0 +1,103 @@
+#include "io/ProgressLine.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+namespace ehlsim {
+
+namespace {
+constexpr double kSecondsPerMinute = 60.0;
+constexpr double kSecondsPerHour = 3600.0;
+constexpr const char* kClearLine = "\r\x1b[K";  ///< carriage return + ANSI erase to end of line
+}  // namespace
+
+double estimate_end_time(double T, double Delta, double dDelta_dT, double T_end, double Delta0,
+                         double V0) {
+  if (std::isfinite(T_end)) return std::max(T_end, T);
+  const double margin = kLiftOffMargin * kDryContactDuration;
+  double estimate = 0.0;
+  if (dDelta_dT > 0.0) {
+    estimate = T + std::max(-Delta, 0.0) / dDelta_dT + margin;
+  } else {
+    estimate = std::max(Delta0, 0.0) / V0 + kDryContactDuration + margin;
+  }
+  return std::max(estimate, T + margin);
+}
+
+std::string format_duration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0.0) return "?";
+  if (seconds < kSecondsPerMinute) return fmt::format("{:.1f}s", seconds);
+  const auto total = static_cast<long>(std::lround(seconds));
+  const long per_minute = static_cast<long>(kSecondsPerMinute);
+  const long per_hour = static_cast<long>(kSecondsPerHour);
+  if (seconds < kSecondsPerHour) return fmt::format("{}m{:02}s", total / per_minute, total % per_minute);
+  return fmt::format("{}h{:02}m", total / per_hour, (total % per_hour) / per_minute);
+}
+
+ProgressLine::ProgressLine(bool enabled, double T_end, double Delta0, double V0, std::FILE* stream)
+    : enabled_(enabled),
+      T_end_(T_end),
+      Delta0_(Delta0),
+      V0_(V0),
+      stream_(stream),
+      terminal_(stream != nullptr && isatty(fileno(stream)) == 1),
+      start_(std::chrono::steady_clock::now()) {}
+
+ProgressLine::~ProgressLine() {
+  if (enabled_ && stream_ != nullptr && printed_ && terminal_) {
+    std::fputc('\n', stream_);
+    std::fflush(stream_);
+  }
+}
+
+std::string ProgressLine::text(const StepRecord& r, double elapsed, bool done) const {
+  if (done) {
+    return fmt::format("T {:.4f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  done in {}",
+                       r.T, r.step, r.Delta, r.force, r.cycles, r.residual, format_duration(elapsed));
+  }
+  const double T_est = estimate_end_time(r.T, r.Delta, r.dDelta_dT, T_end_, Delta0_, V0_);
+  const double remaining = r.T > 0.0 ? elapsed * (T_est - r.T) / r.T : -1.0;
+  const char* approx = std::isfinite(T_end_) ? "" : "~";
+  return fmt::format("T {:.4f}/{}{:.2f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  "
+                     "{}, {}{} left",
+                     r.T, approx, T_est, r.step, r.Delta, r.force, r.cycles, r.residual,
+                     format_duration(elapsed), approx, format_duration(remaining));
+}
+
+void ProgressLine::print(const StepRecord& record, double elapsed, bool done) {
+  const std::string line = text(record, elapsed, done);
+  if (terminal_) {
+    std::fprintf(stream_, "%s%s", kClearLine, line.c_str());
+  } else {
+    std::fprintf(stream_, "%s\n", line.c_str());
+  }
+  std::fflush(stream_);
+  last_print_ = elapsed;
+  pending_ = false;
+  printed_ = true;
+}
+
+void ProgressLine::update(const StepRecord& record) {
+  if (!enabled_ || stream_ == nullptr) return;
+  last_ = record;
+  pending_ = true;
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double interval = terminal_ ? kTerminalInterval : kLogInterval;
+  if (last_print_ < 0.0 || elapsed - last_print_ >= interval) print(record, elapsed, false);
+}
+
+void ProgressLine::finish() {
+  if (!enabled_ || stream_ == nullptr) return;
+  if (pending_ || (printed_ && terminal_)) {
+    print(last_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(), true);
+  }
+  if (printed_ && terminal_) std::fputc('\n', stream_);
+  std::fflush(stream_);
+  printed_ = false;
+}
+
+}  // namespace ehlsim

@@ -1,0 +1,76 @@
+#pragma once
+// One updating status line on stderr while a run marches in time:
+//
+//   T 2.6094/~4.54  step 223  Delta -1.0933  force 2.7  cycles 5  res 3.1e-09  1m02s, ~31s left
+//
+// On a terminal the line is rewritten in place ("\r" + clear to end of line)
+// at most kTerminalInterval apart; when stderr is not a terminal a full line is
+// printed at most kLogInterval apart.  finish() ends the line.
+//
+// The remaining wall time is elapsed * (T_est - T) / T, with the end-time
+// estimate T_est of estimate_end_time().
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "impact/ImpactObserver.hpp"
+
+namespace ehlsim {
+
+/// Duration of the dry Hertz impact in model units (model.md: 1.0000 -> 4.2181).
+inline constexpr double kDryContactDuration = 3.2181;
+/// Lubrication delays lift-off (the paper's M = 100, L = 10 case: 4.37 vs 4.218);
+/// the estimate adds this fraction of the dry contact duration.
+inline constexpr double kLiftOffMargin = 0.1;
+
+/// Estimated end time of a run after the step `last`:
+///  - T_end when it is finite (T once past it);
+///  - before the rebound: first dry contact Delta0 / V0 plus the dry contact
+///    duration plus the margin, (Delta0/V0 + 3.2181) + 0.1 * 3.2181;
+///  - during the rebound (dDelta/dT > 0): linear extrapolation of Delta back to
+///    0, T + max(-Delta, 0) / (dDelta/dT), plus the margin 0.1 * 3.2181 (the
+///    ball accelerates while the film still pushes, so this errs late);
+///  - never earlier than T + the margin when the run is not finished.
+[[nodiscard]] double estimate_end_time(double T, double Delta, double dDelta_dT, double T_end,
+                                       double Delta0, double V0);
+
+/// "12.3s", "4m05s", "2h03m".
+[[nodiscard]] std::string format_duration(double seconds);
+
+class ProgressLine {
+ public:
+  static constexpr double kTerminalInterval = 0.2;  ///< s: about five updates per second
+  static constexpr double kLogInterval = 10.0;      ///< s: when stderr is not a terminal
+
+  /// Disabled (prints nothing) when `enabled` is false (--quiet).
+  ProgressLine(bool enabled, double T_end, double Delta0, double V0, std::FILE* stream = stderr);
+  /// Ends an unfinished line on a terminal (a failed run).
+  ~ProgressLine();
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+  void update(const StepRecord& record);
+  /// Prints the last state (if not yet shown) and ends the line.
+  void finish();
+
+  /// The text of the line for a record after `elapsed` seconds (`done`: the
+  /// run has finished, no estimate).
+  [[nodiscard]] std::string text(const StepRecord& record, double elapsed, bool done = false) const;
+
+ private:
+  void print(const StepRecord& record, double elapsed, bool done);
+
+  bool enabled_;
+  double T_end_;
+  double Delta0_;
+  double V0_;
+  std::FILE* stream_;
+  bool terminal_;
+  std::chrono::steady_clock::time_point start_;
+  double last_print_ = -1.0;  ///< elapsed seconds at the last print, < 0: never
+  bool pending_ = false;      ///< a record that has not been shown yet
+  bool printed_ = false;
+  StepRecord last_{};
+};
+
+}  // namespace ehlsim

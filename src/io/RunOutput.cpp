@@ -1,0 +1,113 @@
+#include "io/RunOutput.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "io/AtomicFile.hpp"
+#include "io/Parameters.hpp"
+
+namespace ehlsim {
+
+namespace {
+
+/// A step at T counts as "at" a requested snapshot time t when T >= t - this * max(1, |t|)
+/// (time steps accumulate rounding errors).
+constexpr double kSnapshotTimeTolerance = 1e-9;
+
+nlohmann::json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+RunOutput::RunOutput(std::filesystem::path directory, const ImpactConfig& config, bool show_progress,
+                     nlohmann::json invocation)
+    : directory_(std::move(directory)),
+      config_(config),
+      invocation_(std::move(invocation)),
+      parameters_(effective_parameters_json(config)),
+      grid_(config.grid_points, config.half_width),
+      snapshot_times_(config.snapshot_times),
+      start_(std::chrono::steady_clock::now()),
+      progress_(show_progress, config.T_end, config.Delta0, config.V0) {
+  std::sort(snapshot_times_.begin(), snapshot_times_.end());
+  std::filesystem::create_directories(directory_);
+  timeseries_ = std::make_unique<TimeSeriesWriter>(directory_ / kTimeSeriesFile);
+}
+
+RunOutput::~RunOutput() = default;
+
+void RunOutput::on_start(const Grid2D& grid) {
+  grid_ = grid;
+  fields_ = std::make_unique<FieldWriter>(directory_ / kFieldsFile, grid_, parameters_);
+}
+
+void RunOutput::on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) {
+  timeseries_->append(record);
+  bool store = snapshot;
+  while (next_snapshot_time_ < snapshot_times_.size()) {
+    const double t = snapshot_times_[next_snapshot_time_];
+    if (record.T < t - kSnapshotTimeTolerance * std::max(1.0, std::abs(t))) break;
+    store = true;
+    ++next_snapshot_time_;
+  }
+  if (store) {
+    if (!fields_) on_start(grid_);
+    fields_->append(record.T, P, H);
+  }
+  progress_.update(record);
+}
+
+double RunOutput::elapsed_seconds() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+std::size_t RunOutput::steps_written() const { return timeseries_ ? timeseries_->rows() : 0; }
+
+std::size_t RunOutput::snapshots_written() const { return fields_ ? fields_->snapshots() : 0; }
+
+nlohmann::json RunOutput::run_json(const RunSummary& s) const {
+  using nlohmann::json;
+  const double wall = elapsed_seconds();
+  json j;
+  j["program"] = {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "impact"}};
+  if (!invocation_.empty()) j["invocation"] = invocation_;
+  j["parameters"] = parameters_;
+  j["derived"] = {{"M", config_.M},
+                  {"L", config_.L},
+                  {"lambda_bar", config_.lambda_bar},
+                  {"alpha_bar", config_.alpha_bar}};
+  if (config_.physical) j["derived"]["scales"] = parameters_["scales"];
+  j["grid"] = {{"points", grid_.n}, {"half_width", grid_.half_width}, {"h", grid_.h()}};
+  j["dT"] = effective_time_step(config_);
+  j["results"] = {{"steps", s.steps},
+                  {"lifted_off", s.lifted_off},
+                  {"T_final", s.T_final},
+                  {"T_lift_off", number_or_null(s.T_lift_off)},
+                  {"rebound_speed", number_or_null(s.rebound_speed)},
+                  {"max_force", s.max_force},
+                  {"T_max_force", s.T_max_force},
+                  {"min_h_center", s.min_h_center},
+                  {"T_min_h_center", s.T_min_h_center},
+                  {"impulse", s.impulse}};
+  j["wall_seconds"] = wall;
+  j["solver_wall_seconds"] = s.wall_seconds;
+  j["files"] = {{"timeseries", kTimeSeriesFile},
+                {"timeseries_rows", steps_written()},
+                {"fields", kFieldsFile},
+                {"snapshots", snapshots_written()}};
+  return j;
+}
+
+void RunOutput::on_finish(const RunSummary& summary) {
+  progress_.finish();
+  if (!fields_) on_start(grid_);  // a run without steps still gets a (empty) fields file
+  timeseries_->commit();
+  fields_->commit();
+  write_json_atomic(directory_ / kRunFile, run_json(summary));
+  committed_ = true;
+}
+
+}  // namespace ehlsim

@@ -1,0 +1,195 @@
+// The ehlsim command: exit codes and one-line error messages for bad input,
+// --help / --version, and one tiny real run.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  explicit TempDir(const std::string& tag = "work") {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            ("ehlsim_test_cli_" + std::to_string(::getpid()) + "_" + info->name() + "_" + tag);
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const fs::path& path() const { return path_; }
+  [[nodiscard]] fs::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  fs::path path_;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+fs::path write_file(const fs::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs `ehlsim <args>` (args already quoted as needed) and captures everything.
+Result ehlsim(const std::string& args) {
+  const TempDir capture("capture");
+  const fs::path out = capture / "stdout";
+  const fs::path err = capture / "stderr";
+  const std::string command = quote(EHLSIM_BINARY) + " " + args + " > " + quote(out.string()) +
+                              " 2> " + quote(err.string()) + " < /dev/null";
+  const int status = std::system(command.c_str());
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_file(out);
+  r.err = read_file(err);
+  return r;
+}
+
+/// Bad input: exit code 2 and exactly `message` on one line of stderr.
+void expect_bad_input(const Result& r, const std::string& message) {
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: " + message + "\n");
+  EXPECT_EQ(r.out, "");
+}
+
+TEST(Cli, UnknownKeyInFile) {
+  TempDir dir;
+  const std::string f = write_file(dir / "case.toml", "[case]\nMx = 20\n").string();
+  expect_bad_input(ehlsim("impact " + quote(f)),
+                   "unknown key 'case.Mx' (known keys in [case]: M, L, lambda_bar, alpha_bar) (" + f +
+                       ":2:6)");
+}
+
+TEST(Cli, UnknownKeyInSet) {
+  expect_bad_input(ehlsim("impact --set grid.point=33"),
+                   "unknown key 'grid.point' (known keys in [grid]: points, half_width) (--set)");
+}
+
+TEST(Cli, WrongType) {
+  expect_bad_input(ehlsim("impact --set case.M=abc"), "case.M = \"abc\": must be a number > 0 (--set)");
+  expect_bad_input(ehlsim("impact --set body.elastic=1"), "body.elastic = 1: must be true or false (--set)");
+}
+
+TEST(Cli, OutOfRange) {
+  expect_bad_input(ehlsim("impact --set case.M=-3"), "case.M = -3: must be > 0 (--set)");
+  TempDir dir;
+  const std::string f = write_file(dir / "case.toml", "[time]\nV0 = 0\n").string();
+  expect_bad_input(ehlsim("impact " + quote(f)), "time.V0 = 0: must be > 0 (" + f + ":2:6)");
+}
+
+TEST(Cli, GridNotTwoToTheKPlusOne) {
+  expect_bad_input(ehlsim("impact --set grid.points=100"),
+                   "grid.points = 100: must be 2^k + 1 between 9 and 4097 (--set)");
+}
+
+TEST(Cli, UnreadableFile) {
+  TempDir dir;
+  const std::string f = (dir / "missing.toml").string();
+  expect_bad_input(ehlsim("impact " + quote(f)),
+                   "cannot read config file '" + f + "': No such file or directory");
+}
+
+TEST(Cli, MalformedToml) {
+  TempDir dir;
+  const std::string f = write_file(dir / "bad.toml", "[case]\nM = = 3\n").string();
+  const Result r = ehlsim("impact " + quote(f));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("ehlsim: error: " + f + ":2:", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+TEST(Cli, BadCommandLine) {
+  for (const char* args : {"", "impact --bogus", "impact a.toml b.toml", "impact --set", "frobnicate"}) {
+    SCOPED_TRACE(args);
+    const Result r = ehlsim(args);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err.rfind("ehlsim: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
+  TempDir dir;
+  const std::string blocker = write_file(dir / "file", "not a directory").string();
+  const Result r = ehlsim("impact --quiet --set grid.points=33 --out " + quote(blocker + "/run"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err.rfind("ehlsim: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+TEST(Cli, VersionAndHelp) {
+  const Result version = ehlsim("--version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_EQ(version.out, std::string("ehlsim ") + EHLSIM_VERSION + "\n");
+  const Result help = ehlsim("impact --help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* text : {"--set", "--out", "--quiet", "case.M = 100  (float, > 0)",
+                           "grid.points = 257  (integer, 2^k + 1 between 9 and 4097)",
+                           "time.T_end = until lift-off", "solver.deformation = \"fft\""}) {
+    EXPECT_NE(help.out.find(text), std::string::npos) << text;
+  }
+}
+
+TEST(Cli, TinyRun) {
+  TempDir dir;
+  const fs::path run = dir / "run";
+  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
+                          "--set body.elastic=false --set time.T_end=0.3 --quiet --out " +
+                          quote(run.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "");  // --quiet: nothing but errors
+  EXPECT_EQ(r.err, "");
+  const std::string csv = read_file(run / "timeseries.csv");
+  EXPECT_EQ(csv.rfind("T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual\n", 0), 0u);
+  EXPECT_GE(std::count(csv.begin(), csv.end(), '\n'), 3);  // header and at least 2 steps (dT = 0.09375)
+  EXPECT_TRUE(fs::exists(run / "fields.nc"));
+  EXPECT_TRUE(fs::exists(run / "run.json"));
+  for (const auto& entry : fs::directory_iterator(run)) {
+    EXPECT_NE(entry.path().extension(), ".part") << entry.path();
+  }
+}
+
+TEST(Cli, RunEchoesTheParameters) {
+  TempDir dir;
+  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
+                          "--set body.elastic=false --set time.T_end=0.1 --set case.M=20 --out " +
+                          quote((dir / "run").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("M = 20, L = 10"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("33^2"), std::string::npos) << r.out;
+}
+
+}  // namespace

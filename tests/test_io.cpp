@@ -1,0 +1,861 @@
+// The io component: parameter registry (TOML, --set, validation messages,
+// echo), the atomic writers (CSV, NetCDF, JSON), the progress line and the
+// RunOutput observer.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <netcdf.h>
+#include <nlohmann/json.hpp>
+
+#include "grid/Grid.hpp"
+#include "impact/ImpactConfig.hpp"
+#include "impact/Scaling.hpp"
+#include "io/AtomicFile.hpp"
+#include "io/FieldWriter.hpp"
+#include "io/Parameters.hpp"
+#include "io/ProgressLine.hpp"
+#include "io/RunOutput.hpp"
+#include "io/TimeSeriesWriter.hpp"
+#include "rheology/Lubricant.hpp"
+
+namespace ehlsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A fresh directory, removed with everything in it at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            ("ehlsim_test_io_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" +
+             info->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const fs::path& path() const { return path_; }
+  [[nodiscard]] fs::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  fs::path path_;
+};
+
+fs::path write_file(const fs::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// A double in full precision, as TOML accepts it.
+std::string fmt_double(double v) {
+  std::array<char, 64> buffer{};
+  std::snprintf(buffer.data(), buffer.size(), "%.17g", v);
+  return buffer.data();
+}
+
+std::vector<std::string> files_in(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// The message of the ConfigError that load_config throws ("" if none).
+std::string config_error(const std::optional<fs::path>& file, const std::vector<std::string>& sets) {
+  try {
+    (void)load_config(file, sets);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string set_error(const std::vector<std::string>& sets) { return config_error(std::nullopt, sets); }
+
+// ---------------------------------------------------------------------------
+// Registry
+// ---------------------------------------------------------------------------
+
+TEST(Registry, KeysAreUniqueDocumentedAndInKnownSections) {
+  std::set<std::string> keys;
+  std::set<std::string> sections;
+  for (const auto& s : parameter_sections()) sections.insert(s.name);
+  for (const auto& spec : parameter_registry()) {
+    SCOPED_TRACE(spec.key);
+    EXPECT_TRUE(keys.insert(spec.key).second) << "declared twice";
+    EXPECT_TRUE(sections.count(std::string(spec.section())));
+    EXPECT_FALSE(spec.name().empty());
+    EXPECT_FALSE(spec.doc.empty());
+    EXPECT_EQ(spec.doc.find('\n'), std::string::npos);
+    EXPECT_EQ(find_parameter(spec.key), &spec);
+  }
+  EXPECT_EQ(find_parameter("case.Mx"), nullptr);
+}
+
+TEST(Registry, HelpListsEveryKeyWithDefaultAndRange) {
+  const std::string help = describe_parameters();
+  for (const auto& spec : parameter_registry()) {
+    SCOPED_TRACE(spec.key);
+    const std::string line = spec.key + " = " + spec.default_description();
+    EXPECT_NE(help.find(line), std::string::npos);
+    EXPECT_NE(help.find(spec.allowed()), std::string::npos);
+  }
+  EXPECT_NE(help.find("grid.points = 257  (integer, 2^k + 1 between 9 and 4097)"), std::string::npos);
+  EXPECT_NE(help.find("case.M = 100  (float, > 0)"), std::string::npos);
+  EXPECT_NE(help.find("lubricant.viscosity = \"barus\"  (string, one of \"barus\", \"roelands\")"),
+            std::string::npos);
+  EXPECT_NE(help.find("physical.nu1 = none  (float, in [0, 0.5])"), std::string::npos);
+}
+
+TEST(Registry, DefaultsAreTheEmbeddedDefaultCase) {
+  const ImpactConfig c = load_config(std::nullopt, {});
+  const ImpactConfig d;  // the struct's own initializers must agree with the registry
+  EXPECT_EQ(c.M, 100.0);
+  EXPECT_EQ(c.L, 10.0);
+  EXPECT_DOUBLE_EQ(c.lambda_bar, moes_lambda_bar(100.0));
+  EXPECT_DOUBLE_EQ(c.alpha_bar, moes_alpha_bar(100.0, 10.0));
+  EXPECT_FALSE(c.physical);
+  EXPECT_EQ(c.M, d.M);
+  EXPECT_EQ(c.L, d.L);
+  EXPECT_EQ(c.viscosity, d.viscosity);
+  EXPECT_EQ(c.density, d.density);
+  EXPECT_EQ(c.elastic, d.elastic);
+  EXPECT_EQ(c.grid_points, 257);
+  EXPECT_EQ(c.grid_points, d.grid_points);
+  EXPECT_EQ(c.half_width, d.half_width);
+  EXPECT_EQ(c.dT, 0.0);  // the mesh size
+  EXPECT_EQ(c.dT, d.dT);
+  EXPECT_TRUE(std::isinf(c.T_end));  // until lift-off
+  EXPECT_EQ(c.T_end, d.T_end);
+  EXPECT_EQ(c.Delta0, d.Delta0);
+  EXPECT_EQ(c.V0, d.V0);
+  EXPECT_EQ(c.waviness_amplitude, d.waviness_amplitude);
+  EXPECT_EQ(c.waviness_wavelength, d.waviness_wavelength);
+  EXPECT_EQ(c.waviness_angle_deg, d.waviness_angle_deg);
+  EXPECT_EQ(c.cycle, d.cycle);
+  EXPECT_EQ(c.tolerance, d.tolerance);
+  EXPECT_EQ(c.max_cycles, d.max_cycles);
+  EXPECT_EQ(c.pre_sweeps, d.pre_sweeps);
+  EXPECT_EQ(c.post_sweeps, d.post_sweeps);
+  EXPECT_EQ(c.coarsest_points, d.coarsest_points);
+  EXPECT_EQ(c.deformation, d.deformation);
+  EXPECT_EQ(c.snapshot_every, d.snapshot_every);
+  EXPECT_EQ(c.snapshot_times, d.snapshot_times);
+  EXPECT_DOUBLE_EQ(effective_time_step(c), 3.0 / 256.0);
+}
+
+TEST(Registry, ReadsATomlFile) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "case.toml", R"(
+# a comment
+[case]
+M = 20          # an integer is a fine float
+L = 5.5
+[lubricant]
+viscosity = "roelands"
+density = "dowson-higginson"
+eta0 = 0.04
+z = 0.6
+ph_star = 1.0e9
+[body]
+elastic = false
+[grid]
+points = 129.0  # an integral float is a fine integer
+half_width = 2
+[time]
+dT = 0.01
+T_end = 4.5
+Delta0 = 2
+V0 = 0.5
+[surface]
+waviness_amplitude = 0.1
+waviness_wavelength = 0.25
+waviness_angle_deg = -30
+[output]
+snapshot_every = 5
+snapshot_times = [3.223, 1, 4.0]
+[solver]
+cycle = "W"
+tolerance = 1e-6
+max_cycles = 12
+pre_sweeps = 3
+post_sweeps = 0
+coarsest_points = 9
+deformation = "direct"
+)");
+  const ImpactConfig c = load_config(file, {});
+  EXPECT_EQ(c.M, 20.0);
+  EXPECT_EQ(c.L, 5.5);
+  EXPECT_DOUBLE_EQ(c.lambda_bar, moes_lambda_bar(20.0));
+  EXPECT_DOUBLE_EQ(c.alpha_bar, moes_alpha_bar(20.0, 5.5));
+  EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
+  EXPECT_EQ(c.density, DensityModel::DowsonHigginson);
+  EXPECT_EQ(c.eta0_Pa_s, 0.04);
+  EXPECT_EQ(c.roelands_z, 0.6);
+  EXPECT_EQ(c.ph_star_Pa, 1e9);
+  EXPECT_FALSE(c.elastic);
+  EXPECT_EQ(c.grid_points, 129);
+  EXPECT_EQ(c.half_width, 2.0);
+  EXPECT_EQ(c.dT, 0.01);
+  EXPECT_EQ(c.T_end, 4.5);
+  EXPECT_EQ(c.Delta0, 2.0);
+  EXPECT_EQ(c.V0, 0.5);
+  EXPECT_EQ(c.waviness_amplitude, 0.1);
+  EXPECT_EQ(c.waviness_wavelength, 0.25);
+  EXPECT_EQ(c.waviness_angle_deg, -30.0);
+  EXPECT_EQ(c.snapshot_every, 5);
+  EXPECT_EQ(c.snapshot_times, (std::vector<double>{3.223, 1.0, 4.0}));
+  EXPECT_EQ(c.cycle, CycleType::W);
+  EXPECT_EQ(c.tolerance, 1e-6);
+  EXPECT_EQ(c.max_cycles, 12);
+  EXPECT_EQ(c.pre_sweeps, 3);
+  EXPECT_EQ(c.post_sweeps, 0);
+  EXPECT_EQ(c.coarsest_points, 9);
+  EXPECT_EQ(c.deformation, DeformationMethod::Direct);
+}
+
+TEST(Registry, SetOverridesUseTomlValueSyntax) {
+  const ImpactConfig c = load_config(
+      std::nullopt, {"case.M=20", "lubricant.viscosity=roelands", "lubricant.eta0=0.04",
+                     "lubricant.ph_star=1e9", "body.elastic=false", "output.snapshot_times=[1, 2.5]",
+                     "solver.cycle=\"W\"", " grid.points = 65 ", "time.T_end=inf"});
+  EXPECT_EQ(c.M, 20.0);
+  EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
+  EXPECT_FALSE(c.elastic);
+  EXPECT_EQ(c.snapshot_times, (std::vector<double>{1.0, 2.5}));
+  EXPECT_EQ(c.cycle, CycleType::W);
+  EXPECT_EQ(c.grid_points, 65);
+  EXPECT_TRUE(std::isinf(c.T_end));
+  // A single number is a one-entry array.
+  EXPECT_EQ(load_config(std::nullopt, {"output.snapshot_times=3.2"}).snapshot_times,
+            std::vector<double>{3.2});
+}
+
+TEST(Registry, SetOverridesTheFileAndTheLastSetWins) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "case.toml", "[case]\nM = 20\n[grid]\npoints = 65\n");
+  const ImpactConfig c = load_config(file, {"case.M=50", "grid.points=33", "grid.points=17"});
+  EXPECT_EQ(c.M, 50.0);
+  EXPECT_EQ(c.grid_points, 17);
+  // An override may bring a value back into range after a bad one.
+  EXPECT_EQ(load_config(std::nullopt, {"case.M=-1", "case.M=10"}).M, 10.0);
+}
+
+TEST(Registry, LambdaBarAndAlphaBarAreAlternativesToMAndL) {
+  const double lambda_bar = moes_lambda_bar(20.0);
+  const double alpha_bar = moes_alpha_bar(20.0, 7.0);
+  const ImpactConfig a = load_config(std::nullopt, {"case.lambda_bar=" + fmt_double(lambda_bar),
+                                                    "case.alpha_bar=" + fmt_double(alpha_bar)});
+  EXPECT_NEAR(a.M, 20.0, 1e-12);
+  EXPECT_NEAR(a.L, 7.0, 1e-12);
+  EXPECT_EQ(a.lambda_bar, lambda_bar);
+  EXPECT_EQ(a.alpha_bar, alpha_bar);
+  // lambda_bar with the default L: alpha_bar follows from M(lambda_bar) and L.
+  const ImpactConfig b = load_config(std::nullopt, {"case.lambda_bar=0.5"});
+  EXPECT_NEAR(b.L, 10.0, 1e-14);
+  EXPECT_DOUBLE_EQ(b.alpha_bar, moes_alpha_bar(moes_M(0.5), 10.0));
+}
+
+// ---------------------------------------------------------------------------
+// Validation messages: one line, naming the key, the value and what is allowed
+// ---------------------------------------------------------------------------
+
+TEST(RegistryErrors, OutOfRange) {
+  EXPECT_EQ(set_error({"case.M=-3"}), "case.M = -3: must be > 0 (--set)");
+  EXPECT_EQ(set_error({"case.L=-0.5"}), "case.L = -0.5: must be >= 0 (--set)");
+  EXPECT_EQ(set_error({"physical.nu1=0.7"}), "physical.nu1 = 0.7: must be in [0, 0.5] (--set)");
+  EXPECT_EQ(set_error({"solver.max_cycles=0"}), "solver.max_cycles = 0: must be >= 1 (--set)");
+  EXPECT_EQ(set_error({"output.snapshot_times=[1.0, -2.0]"}),
+            "output.snapshot_times = [1, -2]: every entry must be >= 0 (--set)");
+  EXPECT_EQ(set_error({"case.M=nan"}), "case.M = nan: must be a number > 0 (--set)");
+  EXPECT_EQ(set_error({"case.M=inf"}), "case.M = inf: must be a finite number > 0 (--set)");
+  EXPECT_EQ(set_error({"time.T_end=0"}), "time.T_end = 0: must be > 0 (--set)");
+  EXPECT_EQ(set_error({"solver.max_cycles=10000000000"}),
+            "solver.max_cycles = 10000000000: is too large (must fit in a 32-bit integer) (--set)");
+}
+
+TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
+  for (const char* bad : {"100", "5", "8193", "0", "-257"}) {
+    EXPECT_EQ(set_error({std::string("grid.points=") + bad}),
+              std::string("grid.points = ") + bad + ": must be 2^k + 1 between 9 and 4097 (--set)");
+  }
+  for (const int good : {9, 17, 33, 4097}) {
+    EXPECT_EQ(load_config(std::nullopt, {"grid.points=" + std::to_string(good), "solver.coarsest_points=5"})
+                  .grid_points,
+              good);
+  }
+  EXPECT_EQ(set_error({"solver.coarsest_points=12"}),
+            "solver.coarsest_points = 12: must be 2^k + 1 between 5 and 4097 (--set)");
+  EXPECT_EQ(set_error({"grid.points=33", "solver.coarsest_points=65"}),
+            "solver.coarsest_points = 65: must be <= grid.points (33) (--set)");
+  // The default coarsest level (17) does not fit a 9-point grid.
+  EXPECT_EQ(set_error({"grid.points=9"}),
+            "solver.coarsest_points: must be <= grid.points (9)");
+}
+
+TEST(RegistryErrors, WrongType) {
+  EXPECT_EQ(set_error({"case.M=abc"}), "case.M = \"abc\": must be a number > 0 (--set)");
+  EXPECT_EQ(set_error({"case.M=\"20\""}), "case.M = \"20\": must be a number > 0 (--set)");
+  EXPECT_EQ(set_error({"body.elastic=3"}), "body.elastic = 3: must be true or false (--set)");
+  EXPECT_EQ(set_error({"body.elastic=False"}), "body.elastic = \"False\": must be true or false (--set)");
+  EXPECT_EQ(set_error({"grid.points=2.5"}),
+            "grid.points = 2.5: must be an integer 2^k + 1 between 9 and 4097 (--set)");
+  EXPECT_EQ(set_error({"output.snapshot_every=true"}),
+            "output.snapshot_every = true: must be an integer >= 1 (--set)");
+  EXPECT_EQ(set_error({"lubricant.viscosity=sae30"}),
+            "lubricant.viscosity = \"sae30\": must be one of \"barus\", \"roelands\" (--set)");
+  EXPECT_EQ(set_error({"solver.cycle=F"}), "solver.cycle = \"F\": must be one of \"V\", \"W\" (--set)");
+  EXPECT_EQ(set_error({"output.snapshot_times=[1, \"x\"]"}),
+            "output.snapshot_times = [1, \"x\"]: must be an array of numbers >= 0 (--set)");
+}
+
+TEST(RegistryErrors, UnknownKeysAndSections) {
+  EXPECT_EQ(set_error({"case.Mx=3"}),
+            "unknown key 'case.Mx' (known keys in [case]: M, L, lambda_bar, alpha_bar) (--set)");
+  EXPECT_EQ(set_error({"grid.point=33"}),
+            "unknown key 'grid.point' (known keys in [grid]: points, half_width) (--set)");
+  const std::string sections =
+      "known sections: case, physical, lubricant, body, grid, time, surface, output, solver";
+  EXPECT_EQ(set_error({"cases.M=3"}),
+            "unknown key 'cases.M' (unknown section [cases]; " + sections + ") (--set)");
+  EXPECT_EQ(set_error({"M=3"}), "unknown key 'M' (keys belong to a section: " +
+                                    sections.substr(std::string("known sections: ").size()) +
+                                    "; write [section] or section.key) (--set)");
+  EXPECT_EQ(set_error({"case.M"}), "--set 'case.M': expected KEY=VALUE, e.g. --set case.M=20");
+  EXPECT_EQ(set_error({"=3"}), "--set '=3': expected KEY=VALUE, e.g. --set case.M=20");
+
+  TempDir dir;
+  const std::string f = (dir / "bad.toml").string();
+  write_file(f, "[case]\nM = 20\n\n[cse]\nL = 3\n");
+  EXPECT_EQ(config_error(f, {}), "unknown key 'cse.L' (unknown section [cse]; " + sections + ") (" + f + ":5:5)");
+  write_file(f, "[case]\nM = 20\n[empty]\n");
+  EXPECT_EQ(config_error(f, {}), "unknown section '[empty]' (" + sections + ") (" + f + ":3:1)");
+  write_file(f, "case = 3\n");
+  EXPECT_EQ(config_error(f, {}), "case = 3: must be a table (section [case]) (" + f + ":1:8)");
+  write_file(f, "[grid]\npoints = 100\n");
+  EXPECT_EQ(config_error(f, {}), "grid.points = 100: must be 2^k + 1 between 9 and 4097 (" + f + ":2:10)");
+}
+
+TEST(RegistryErrors, UnreadableAndMalformedFiles) {
+  EXPECT_EQ(config_error(fs::path("/nonexistent/x.toml"), {}),
+            "cannot read config file '/nonexistent/x.toml': No such file or directory");
+  TempDir dir;
+  EXPECT_EQ(config_error(dir.path(), {}),
+            "cannot read config file '" + dir.path().string() + "': is a directory");
+  const std::string f = (dir / "malformed.toml").string();
+  write_file(f, "[case]\nM = \n");
+  const std::string message = config_error(f, {});
+  EXPECT_EQ(message.rfind(f + ":2:", 0), 0u) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  write_file(f, "[case]\nM = 1\nM = 2\n");
+  EXPECT_EQ(config_error(f, {}).rfind(f + ":3:", 0), 0u) << config_error(f, {});
+}
+
+TEST(RegistryErrors, InconsistentCombinations) {
+  EXPECT_EQ(set_error({"case.M=20", "case.lambda_bar=0.5"}),
+            "case.lambda_bar = 0.5: cannot be given together with case.M (give one of them) (--set)");
+  EXPECT_EQ(set_error({"case.L=2", "case.alpha_bar=5"}),
+            "case.alpha_bar = 5: cannot be given together with case.L (give one of them) (--set)");
+  EXPECT_EQ(set_error({"solver.pre_sweeps=0", "solver.post_sweeps=0"}),
+            "solver.post_sweeps = 0: solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are 0 "
+            "and 0) (--set)");
+  EXPECT_EQ(set_error({"lubricant.viscosity=roelands"}),
+            "lubricant.ph_star is required by lubricant.viscosity = \"roelands\" (reference Hertz "
+            "pressure [Pa]; or give a [physical] section)");
+  EXPECT_EQ(set_error({"lubricant.density=dowson-higginson"}),
+            "lubricant.ph_star is required by lubricant.density = \"dowson-higginson\" (reference "
+            "Hertz pressure [Pa]; or give a [physical] section)");
+  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9"}),
+            "lubricant.eta0 is required by lubricant.viscosity = \"roelands\" (ambient viscosity [Pa "
+            "s]; or give a [physical] section)");
+  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=1e-5"}),
+            "lubricant.eta0 = 1e-05: must be > 6.31499e-05 Pa s for the Roelands law (ln(eta0) + "
+            "9.67 > 0) (--set)");
+  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=0.04",
+                       "lubricant.z=0.6", "lubricant.alpha=2e-8"}),
+            "lubricant.alpha = 2e-08: give either lubricant.z or lubricant.alpha, not both (--set)");
+}
+
+// ---------------------------------------------------------------------------
+// Physical cases
+// ---------------------------------------------------------------------------
+
+constexpr const char* kSteelBall = R"([physical]
+ball_radius = 0.01      # m
+ball_density = 7850.0   # kg/m^3
+impact_speed = 0.1      # m/s
+E1 = 210e9
+nu1 = 0.3
+E2 = 210e9
+nu2 = 0.3
+eta0 = 0.04             # Pa s
+alpha = 2e-8            # 1/Pa
+rho0 = 870.0
+)";
+
+TEST(Physical, ComputesMoesParametersAndScales) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "steel.toml", kSteelBall);
+  const ImpactConfig c = load_config(file, {});
+  ASSERT_TRUE(c.physical);
+  PhysicalCase p;
+  p.reduced_radius_m = 0.01;
+  p.mass_kg = sphere_mass(0.01, 7850.0);
+  p.impact_speed_m_s = 0.1;
+  p.reduced_modulus_Pa = reduced_modulus(210e9, 0.3, 210e9, 0.3);
+  p.eta0_Pa_s = 0.04;
+  p.alpha_per_Pa = 2e-8;
+  p = with_reference_scales(p);
+  const MoesGroups g = moes_groups(p);
+  EXPECT_DOUBLE_EQ(c.M, g.M);
+  EXPECT_DOUBLE_EQ(c.L, g.L);
+  EXPECT_DOUBLE_EQ(c.lambda_bar, g.lambda_bar);
+  EXPECT_DOUBLE_EQ(c.alpha_bar, g.alpha_bar);
+  EXPECT_DOUBLE_EQ(c.physical->ph_star_Pa, p.ph_star_Pa);
+  EXPECT_DOUBLE_EQ(c.physical->delta_star_m, p.delta_star_m);
+  EXPECT_DOUBLE_EQ(c.physical->a_star_m, p.a_star_m);
+  EXPECT_DOUBLE_EQ(c.physical->t_bar_s, p.t_bar_s);
+  EXPECT_EQ(c.physical->rho0_kg_m3, 870.0);
+  EXPECT_DOUBLE_EQ(c.ph_star_Pa, p.ph_star_Pa);
+
+  // The same case with the reduced inputs.
+  const ImpactConfig r = load_config(
+      std::nullopt, {"physical.reduced_radius=0.01", "physical.ball_mass=" + fmt_double(p.mass_kg),
+                     "physical.impact_speed=0.1",
+                     "physical.reduced_modulus=" + fmt_double(p.reduced_modulus_Pa),
+                     "physical.eta0=0.04", "physical.alpha=2e-8"});
+  EXPECT_DOUBLE_EQ(r.M, c.M);
+  EXPECT_DOUBLE_EQ(r.L, c.L);
+
+  // Roelands takes eta0, alpha and ph* from [physical].
+  const ImpactConfig roelands = load_config(file, {"lubricant.viscosity=roelands"});
+  EXPECT_EQ(roelands.eta0_Pa_s, 0.04);
+  EXPECT_DOUBLE_EQ(roelands.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.04));
+  EXPECT_DOUBLE_EQ(roelands.ph_star_Pa, p.ph_star_Pa);
+}
+
+TEST(Physical, ErrorsNameTheKey) {
+  TempDir dir;
+  const std::string f = write_file(dir / "steel.toml", kSteelBall).string();
+  EXPECT_EQ(config_error(f, {"case.M=20"}),
+            "case.M = 20: cannot be combined with a [physical] section (M, L, lambda_bar and "
+            "alpha_bar are computed from it) (--set)");
+  EXPECT_EQ(config_error(f, {"physical.reduced_radius=0.01"}),
+            "physical.reduced_radius = 0.01: give either physical.ball_radius or "
+            "physical.reduced_radius, not both (--set)");
+  EXPECT_EQ(config_error(f, {"physical.reduced_modulus=2e11"}),
+            "physical.E1 = 210000000000: give either physical.reduced_modulus or E1, nu1, E2, nu2, "
+            "not both (" + f + ":5:6)");
+  EXPECT_EQ(config_error(f, {"lubricant.ph_star=1e9"}),
+            "lubricant.ph_star = 1000000000: is given by the [physical] section; remove one of them "
+            "(--set)");
+  EXPECT_EQ(set_error({"physical.ball_radius=0.01"}),
+            "physical.ball_mass (or physical.ball_density) is required with a [physical] section");
+  EXPECT_EQ(set_error({"physical.ball_radius=0.01", "physical.ball_mass=0.03"}),
+            "physical.impact_speed is required with a [physical] section");
+  EXPECT_EQ(set_error({"physical.ball_radius=0.01", "physical.ball_mass=0.03",
+                       "physical.impact_speed=1", "physical.E1=2e11"}),
+            "physical.nu1 is required with a [physical] section (or give physical.reduced_modulus)");
+  EXPECT_EQ(set_error({"physical.rho0=870"}),
+            "physical.ball_radius (or physical.reduced_radius) is required with a [physical] section");
+}
+
+TEST(Examples, AllExamplesLoad) {
+  const fs::path examples = fs::path(EHLSIM_SOURCE_DIR) / "examples";
+  // default.toml: the built-in defaults plus the paper's snapshot times.
+  const ImpactConfig d = load_config(examples / "default.toml", {});
+  EXPECT_EQ(effective_parameters_json(d),
+            effective_parameters_json(load_config(
+                std::nullopt, {"output.snapshot_times=[2.609, 3.223, 3.574, 4.0, 4.2]"})));
+  // physical.toml: the steel ball, M = 82.5, L = 17.1.
+  const ImpactConfig p = load_config(examples / "physical.toml", {});
+  ASSERT_TRUE(p.physical);
+  EXPECT_NEAR(p.M, 82.49, 0.005);
+  EXPECT_NEAR(p.L, 17.09, 0.005);
+  EXPECT_NEAR(p.physical->ph_star_Pa, 1.355e9, 0.0005e9);
+  // roelands-dh.toml: z from alpha = alpha_bar / ph*.
+  const ImpactConfig r = load_config(examples / "roelands-dh.toml", {});
+  EXPECT_EQ(r.viscosity, ViscosityModel::Roelands);
+  EXPECT_EQ(r.density, DensityModel::DowsonHigginson);
+  EXPECT_NEAR(r.roelands_z, 0.5138, 0.00005);
+  EXPECT_DOUBLE_EQ(r.roelands_z, Lubricant::roelands_z_from_alpha(r.alpha_bar / 1e9, 0.04));
+}
+
+// ---------------------------------------------------------------------------
+// Echo of the effective parameters
+// ---------------------------------------------------------------------------
+
+TEST(Echo, EffectiveParametersUseRegistryKeys) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "steel.toml", kSteelBall);
+  for (const ImpactConfig& c :
+       {load_config(std::nullopt, {}), load_config(file, {"lubricant.viscosity=roelands"})}) {
+    const nlohmann::json j = effective_parameters_json(c);
+    for (auto section = j.begin(); section != j.end(); ++section) {
+      if (section.key() == "scales") continue;  // derived, not inputs
+      for (auto it = section->begin(); it != section->end(); ++it) {
+        EXPECT_NE(find_parameter(section.key() + "." + it.key()), nullptr)
+            << section.key() << "." << it.key();
+      }
+    }
+    EXPECT_EQ(j["case"]["M"].get<double>(), c.M);
+    EXPECT_EQ(j["case"]["lambda_bar"].get<double>(), c.lambda_bar);
+    EXPECT_EQ(j["grid"]["points"].get<int>(), c.grid_points);
+    EXPECT_TRUE(j["time"]["T_end"].is_null());
+    EXPECT_DOUBLE_EQ(j["time"]["dT"].get<double>(), 3.0 / 256.0);
+  }
+  const nlohmann::json p = effective_parameters_json(load_config(file, {}));
+  EXPECT_EQ(p["lubricant"]["viscosity"], "barus");
+  EXPECT_NEAR(p["physical"]["reduced_radius"].get<double>(), 0.01, 1e-15);
+  EXPECT_GT(p["scales"]["ph_star_Pa"].get<double>(), 1e9);
+  EXPECT_EQ(effective_parameters_json(load_config(std::nullopt, {"time.T_end=3"}))["time"]["T_end"], 3.0);
+}
+
+// ---------------------------------------------------------------------------
+// Writers
+// ---------------------------------------------------------------------------
+
+StepRecord record(int step, double T) {
+  StepRecord r;
+  r.step = step;
+  r.T = T;
+  r.Delta = 1.0 - T;
+  r.dDelta_dT = -1.0;
+  r.force = 0.1 * step;
+  r.h_center = 1.0 / 3.0;
+  r.h_min = 0.25;
+  r.p_center = 2.0 / 3.0;
+  r.p_max = 1.5;
+  r.cycles = step + 2;
+  r.residual = 1.234567890123e-9;
+  return r;
+}
+
+TEST(Writers, TimeSeriesHeaderRowsAndAtomicRename) {
+  TempDir dir;
+  const fs::path path = dir / "timeseries.csv";
+  {
+    TimeSeriesWriter w(path);
+    w.append(record(1, 0.5));
+    w.append(record(2, 1.0));
+    EXPECT_TRUE(fs::exists(dir / "timeseries.csv.part"));
+    EXPECT_FALSE(fs::exists(path));
+    w.commit();
+    EXPECT_EQ(w.rows(), 2u);
+  }
+  EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"timeseries.csv"});
+  EXPECT_EQ(read_file(path),
+            "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual\n"
+            "0.5,0.5,-1,0.1,0.3333333333,0.25,0.6666666667,1.5,3,1.23456789e-09\n"
+            "1,0,-1,0.2,0.3333333333,0.25,0.6666666667,1.5,4,1.23456789e-09\n");
+}
+
+TEST(Writers, NothingLeftWhenNotCommitted) {
+  TempDir dir;
+  try {
+    TimeSeriesWriter series(dir / "timeseries.csv");
+    FieldWriter fields(dir / "fields.nc", Grid2D(9, 1.5), effective_parameters_json(ImpactConfig{}));
+    series.append(record(1, 0.5));
+    Grid2D grid(9, 1.5);
+    fields.append(0.5, Field(grid, 1.0), Field(grid, 2.0));
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"fields.nc.part", "timeseries.csv.part"}));
+    throw std::runtime_error("solver failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_TRUE(files_in(dir.path()).empty());
+}
+
+TEST(Writers, WriteJsonAtomic) {
+  TempDir dir;
+  const nlohmann::json j = {{"a", 1}, {"b", {1.5, 2.5}}};
+  write_json_atomic(dir / "run.json", j);
+  EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"run.json"});
+  EXPECT_EQ(nlohmann::json::parse(read_file(dir / "run.json")), j);
+  EXPECT_THROW(write_json_atomic(dir / "missing" / "run.json", j), std::runtime_error);
+  EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"run.json"});
+}
+
+std::string text_attribute(int ncid, int var, const char* name) {
+  std::size_t length = 0;
+  if (nc_inq_attlen(ncid, var, name, &length) != NC_NOERR) return "<missing>";
+  std::string value(length, '\0');
+  nc_get_att_text(ncid, var, name, value.data());
+  return value;
+}
+
+TEST(Writers, NetcdfRoundTrip) {
+  TempDir dir;
+  const Grid2D grid(9, 1.5);
+  const ImpactConfig config = load_config(std::nullopt, {"case.M=20", "grid.points=9", "solver.coarsest_points=5"});
+  Field P(grid);
+  Field H(grid);
+  for (int j = 0; j < grid.n; ++j) {
+    for (int i = 0; i < grid.n; ++i) {
+      P(i, j) = i + 10.0 * j;
+      H(i, j) = grid.x(i) * grid.x(i) + 0.5 * grid.y(j);
+    }
+  }
+  {
+    FieldWriter w(dir / "fields.nc", grid, effective_parameters_json(config));
+    w.append(0.25, P, H);
+    Field P2(grid, 7.0);
+    w.append(0.5, P2, H);
+    w.commit();
+    EXPECT_EQ(w.snapshots(), 2u);
+  }
+  EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"fields.nc"});
+
+  int ncid = -1;
+  ASSERT_EQ(nc_open((dir / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
+  int format = 0;
+  nc_inq_format(ncid, &format);
+  EXPECT_EQ(format, NC_FORMAT_NETCDF4);
+  int dim_time = -1;
+  int dim_x = -1;
+  std::size_t n_time = 0;
+  std::size_t n_x = 0;
+  ASSERT_EQ(nc_inq_dimid(ncid, "time", &dim_time), NC_NOERR);
+  ASSERT_EQ(nc_inq_dimid(ncid, "x", &dim_x), NC_NOERR);
+  nc_inq_dimlen(ncid, dim_time, &n_time);
+  nc_inq_dimlen(ncid, dim_x, &n_x);
+  EXPECT_EQ(n_time, 2u);
+  EXPECT_EQ(n_x, 9u);
+  int unlimited = -1;
+  nc_inq_unlimdim(ncid, &unlimited);
+  EXPECT_EQ(unlimited, dim_time);
+
+  int var = -1;
+  ASSERT_EQ(nc_inq_varid(ncid, "P", &var), NC_NOERR);
+  std::vector<double> values(2 * grid.size());
+  ASSERT_EQ(nc_get_var_double(ncid, var, values.data()), NC_NOERR);
+  for (std::size_t k = 0; k < grid.size(); ++k) {
+    EXPECT_EQ(values[k], P[k]);
+    EXPECT_EQ(values[grid.size() + k], 7.0);
+  }
+  EXPECT_EQ(text_attribute(ncid, var, "units"), "1");
+  int storage = -1;
+  std::vector<std::size_t> chunks(3);
+  nc_inq_var_chunking(ncid, var, &storage, chunks.data());
+  EXPECT_EQ(storage, NC_CHUNKED);
+  EXPECT_EQ(chunks, (std::vector<std::size_t>{1, 9, 9}));
+
+  ASSERT_EQ(nc_inq_varid(ncid, "H", &var), NC_NOERR);
+  ASSERT_EQ(nc_get_var_double(ncid, var, values.data()), NC_NOERR);
+  EXPECT_EQ(values[3 + 9 * 4], H(3, 4));
+
+  ASSERT_EQ(nc_inq_varid(ncid, "T", &var), NC_NOERR);
+  std::vector<double> T(2);
+  nc_get_var_double(ncid, var, T.data());
+  EXPECT_EQ(T, (std::vector<double>{0.25, 0.5}));
+  EXPECT_EQ(text_attribute(ncid, var, "axis"), "T");
+
+  ASSERT_EQ(nc_inq_varid(ncid, "X", &var), NC_NOERR);
+  std::vector<double> X(9);
+  nc_get_var_double(ncid, var, X.data());
+  EXPECT_EQ(X.front(), -1.5);
+  EXPECT_EQ(X.back(), 1.5);
+  EXPECT_EQ(text_attribute(ncid, var, "units"), "1");
+  EXPECT_EQ(text_attribute(ncid, var, "axis"), "X");
+
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "Conventions"), "CF-1.8");
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "ehlsim_version"), EHLSIM_VERSION);
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "lubricant_viscosity"), "barus");
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "body_elastic"), "true");
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "time_T_end"), "none");
+  double M = 0.0;
+  ASSERT_EQ(nc_get_att_double(ncid, NC_GLOBAL, "case_M", &M), NC_NOERR);
+  EXPECT_EQ(M, 20.0);
+  int points = 0;
+  ASSERT_EQ(nc_get_att_int(ncid, NC_GLOBAL, "grid_points", &points), NC_NOERR);
+  EXPECT_EQ(points, 9);
+  EXPECT_EQ(nlohmann::json::parse(text_attribute(ncid, NC_GLOBAL, "ehlsim_parameters")),
+            effective_parameters_json(config));
+  nc_close(ncid);
+}
+
+TEST(Writers, NetcdfErrorsNameTheFile) {
+  TempDir dir;
+  try {
+    FieldWriter w(dir / "missing" / "fields.nc", Grid2D(9, 1.5), nlohmann::json::object());
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("fields.nc.part"), std::string::npos) << message;
+    EXPECT_NE(message.find("nc_create"), std::string::npos) << message;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Progress line
+// ---------------------------------------------------------------------------
+
+TEST(Progress, EndTimeEstimate) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const double margin = kLiftOffMargin * kDryContactDuration;
+  EXPECT_EQ(estimate_end_time(0.5, 0.5, -1.0, 3.0, 1.0, 1.0), 3.0);  // finite T_end
+  // Before the rebound: dry contact from Delta0/V0, plus its duration and the margin.
+  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 0.5, -1.0, inf, 1.0, 1.0), 1.0 + kDryContactDuration + margin);
+  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 1.5, -0.5, inf, 2.0, 0.5), 4.0 + kDryContactDuration + margin);
+  // Rebound: Delta extrapolated back to 0.
+  EXPECT_DOUBLE_EQ(estimate_end_time(3.6, -0.5, 0.9, inf, 1.0, 1.0), 3.6 + 0.5 / 0.9 + margin);
+  // Late: never earlier than T + margin.
+  EXPECT_DOUBLE_EQ(estimate_end_time(6.0, 0.1, -0.01, inf, 1.0, 1.0), 6.0 + margin);
+}
+
+TEST(Progress, DurationsAndText) {
+  EXPECT_EQ(format_duration(12.34), "12.3s");
+  EXPECT_EQ(format_duration(245.0), "4m05s");
+  EXPECT_EQ(format_duration(7380.0), "2h03m");
+  EXPECT_EQ(format_duration(-1.0), "?");
+  const ProgressLine line(false, std::numeric_limits<double>::infinity(), 1.0, 1.0);
+  const std::string text = line.text(record(223, 2.0), 10.0);
+  EXPECT_NE(text.find("T 2.0000/~"), std::string::npos) << text;
+  EXPECT_NE(text.find("step 223"), std::string::npos) << text;
+  EXPECT_NE(text.find("cycles 225"), std::string::npos) << text;
+  EXPECT_NE(text.find("left"), std::string::npos) << text;
+  EXPECT_NE(line.text(record(223, 2.0), 10.0, true).find("done in 10.0s"), std::string::npos);
+}
+
+TEST(Progress, QuietPrintsNothingAndLogsPrintLines) {
+  std::FILE* quiet_stream = std::tmpfile();
+  std::FILE* log_stream = std::tmpfile();
+  ASSERT_TRUE(quiet_stream && log_stream);
+  {
+    ProgressLine quiet(false, 1.0, 1.0, 1.0, quiet_stream);
+    ProgressLine log(true, 1.0, 1.0, 1.0, log_stream);  // a file: full lines, throttled
+    for (int step = 1; step <= 100; ++step) {
+      quiet.update(record(step, 0.01 * step));
+      log.update(record(step, 0.01 * step));
+    }
+    quiet.finish();
+    log.finish();
+  }
+  EXPECT_EQ(std::ftell(quiet_stream), 0L);
+  std::rewind(log_stream);
+  std::string text(4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  // The first step, then (within the 10 s throttle) only the final state.
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 2) << text;
+  EXPECT_NE(text.find("step 1 "), std::string::npos) << text;
+  EXPECT_NE(text.find("step 100 "), std::string::npos) << text;
+  EXPECT_EQ(text.find('\r'), std::string::npos);
+  std::fclose(quiet_stream);
+  std::fclose(log_stream);
+}
+
+// ---------------------------------------------------------------------------
+// RunOutput
+// ---------------------------------------------------------------------------
+
+TEST(RunOutput, WritesAllFilesOnFinish) {
+  TempDir dir;
+  const fs::path run = dir / "nested" / "run";
+  const ImpactConfig config = load_config(
+      std::nullopt, {"grid.points=9", "solver.coarsest_points=5", "output.snapshot_every=3",
+                     "output.snapshot_times=[0.45, 0.0, 2.0]", "time.dT=0.1"});
+  const Grid2D grid(9, 1.5);
+  {
+    RunOutput output(run, config, false, {{"config_file", nullptr}});
+    output.on_start(grid);
+    for (int step = 1; step <= 10; ++step) {
+      // The solver flags every third step; 0.45 adds step 5 (T = 0.5), 0.0 adds step 1.
+      output.on_step(record(step, 0.1 * step), Field(grid, step), Field(grid, 1.0), step % 3 == 0);
+    }
+    EXPECT_EQ(files_in(run), (std::vector<std::string>{"fields.nc.part", "timeseries.csv.part"}));
+    RunSummary summary;
+    summary.steps = 10;
+    summary.lifted_off = true;
+    summary.T_final = 1.0;
+    summary.T_lift_off = 0.95;
+    summary.rebound_speed = 0.9;
+    summary.max_force = 2.5;
+    summary.min_h_center = 0.01;
+    summary.impulse = 1.9;
+    output.on_finish(summary);
+    EXPECT_TRUE(output.committed());
+    EXPECT_EQ(output.snapshots_written(), 5u);  // steps 1, 3, 5, 6, 9
+  }
+  EXPECT_EQ(files_in(run), (std::vector<std::string>{"fields.nc", "run.json", "timeseries.csv"}));
+  const nlohmann::json j = nlohmann::json::parse(read_file(run / "run.json"));
+  EXPECT_EQ(j["program"]["version"], EHLSIM_VERSION);
+  EXPECT_EQ(j["parameters"], effective_parameters_json(config));
+  EXPECT_EQ(j["derived"]["M"].get<double>(), config.M);
+  EXPECT_EQ(j["grid"]["points"], 9);
+  EXPECT_DOUBLE_EQ(j["grid"]["h"].get<double>(), 0.375);
+  EXPECT_DOUBLE_EQ(j["dT"].get<double>(), 0.1);
+  EXPECT_EQ(j["results"]["steps"], 10);
+  EXPECT_EQ(j["results"]["T_lift_off"].get<double>(), 0.95);
+  EXPECT_EQ(j["results"]["rebound_speed"].get<double>(), 0.9);
+  EXPECT_EQ(j["results"]["max_force"].get<double>(), 2.5);
+  EXPECT_EQ(j["results"]["impulse"].get<double>(), 1.9);
+  EXPECT_EQ(j["files"]["snapshots"], 5);
+  EXPECT_TRUE(j["invocation"]["config_file"].is_null());
+  EXPECT_GE(j["wall_seconds"].get<double>(), 0.0);
+
+  int ncid = -1;
+  ASSERT_EQ(nc_open((run / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
+  int var = -1;
+  ASSERT_EQ(nc_inq_varid(ncid, "T", &var), NC_NOERR);
+  std::vector<double> T(5);
+  nc_get_var_double(ncid, var, T.data());
+  EXPECT_EQ(T, (std::vector<double>{0.1, 0.30000000000000004, 0.5, 0.6000000000000001, 0.9}));
+  nc_close(ncid);
+
+  const std::string csv = read_file(run / "timeseries.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 11);
+}
+
+TEST(RunOutput, FailedRunLeavesNoFiles) {
+  TempDir dir;
+  const ImpactConfig config = load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
+  const Grid2D grid(9, 1.5);
+  {
+    RunOutput output(dir.path(), config, false);
+    output.on_start(grid);
+    output.on_step(record(1, 0.1), Field(grid), Field(grid), true);
+    // the solver throws: on_finish is never called
+  }
+  EXPECT_TRUE(files_in(dir.path()).empty());
+}
+
+TEST(RunOutput, RunJsonHasNullForMissingLiftOff) {
+  TempDir dir;
+  const ImpactConfig config = load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
+  RunOutput output(dir.path(), config, false);
+  RunSummary summary;
+  summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
+  summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
+  const nlohmann::json j = output.run_json(summary);
+  EXPECT_TRUE(j["results"]["T_lift_off"].is_null());
+  EXPECT_TRUE(j["results"]["rebound_speed"].is_null());
+}
+
+}  // namespace
+}  // namespace ehlsim
