@@ -24,9 +24,9 @@ struct RelaxationSettings {
   /// Switch: a point is relaxed by Gauss-Seidel where
   /// sum of face xi / h^2 >= switch_ratio * (b0/dT) rho K(0,0), else distributively.
   /// Venner & Lubrecht use a value of about 0.3 for the analogous ratio.
-  double switch_ratio = 0.3;
-  double omega_gauss_seidel = 0.6;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.25;       ///< under-relaxation of distributive changes
+  double switch_ratio = 3.0;
+  double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
+  double omega_jacobi = 0.2;        ///< under-relaxation of distributive changes
 };
 
 /// Statistics of the last sweep (for diagnostics and tests).
