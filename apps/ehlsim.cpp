@@ -126,6 +126,10 @@ void print_summary(const RunSummary& s, const RunOutput& output) {
              s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
   fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps, output.snapshots_written(),
              output.elapsed_seconds(), output.directory().string());
+  if (s.unconverged_steps > 0 || s.retried_steps > 0)
+    fmt::print("{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
+               "{} steps were solved again with more damping\n",
+               s.unconverged_steps, s.retried_steps);
 }
 
 int run_impact(const ImpactOptions& options) {

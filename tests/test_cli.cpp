@@ -2,6 +2,8 @@
 // --help / --version, and one tiny real run.
 #include <gtest/gtest.h>
 
+#include "support/TempDir.hpp"
+
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,27 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
- public:
-  explicit TempDir(const std::string& tag = "work") {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("ehlsim_test_cli_" + std::to_string(::getpid()) + "_" + info->name() + "_" + tag);
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-  [[nodiscard]] fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+using ehlsim::testing::TempDir;
 
 std::string read_file(const fs::path& path) {
   std::ifstream in(path);

@@ -3,6 +3,8 @@
 // RunOutput observer.
 #include <gtest/gtest.h>
 
+#include "support/TempDir.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -37,29 +39,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A fresh directory, removed with everything in it at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("ehlsim_test_io_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" +
-             info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  [[nodiscard]] const fs::path& path() const { return path_; }
-  [[nodiscard]] fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+using ehlsim::testing::TempDir;
 
 fs::path write_file(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;

@@ -36,6 +36,7 @@ struct RunSummary {
   double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT
   double wall_seconds = 0.0;
   int unconverged_steps = 0;    ///< steps that ended at solver.max_cycles above solver.tolerance
+  int retried_steps = 0;        ///< steps solved again with more damping after diverging
 };
 
 class ImpactObserver {

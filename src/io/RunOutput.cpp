@@ -91,7 +91,9 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"T_max_force", s.T_max_force},
                   {"min_h_center", s.min_h_center},
                   {"T_min_h_center", s.T_min_h_center},
-                  {"impulse", s.impulse}};
+                  {"impulse", s.impulse},
+                  {"unconverged_steps", s.unconverged_steps},
+                  {"retried_steps", s.retried_steps}};
   j["wall_seconds"] = wall;
   j["solver_wall_seconds"] = s.wall_seconds;
   j["files"] = {{"timeseries", kTimeSeriesFile},

@@ -29,7 +29,8 @@ void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
 void LineRelaxation::sweep(Field& P, const Field& f) {
   const int n = op_.grid().n;
   long gs = 0, jac = 0;
-  const double w = settings_.omega_jacobi;
+  const double w = settings_.omega_jacobi * damping_;
+  const double w_gs = settings_.omega_gauss_seidel * damping_;
   const Field& d = jacobi_change_;
   // Zebra order: the lines of one colour are independent given the other
   // colour, so they are relaxed in parallel; the coefficients (and with them
@@ -52,7 +53,7 @@ void LineRelaxation::sweep(Field& P, const Field& f) {
             jacobi_change_(i, j) = rhs[i - 1];
             ++colour_jac;
           } else {
-            P(i, j) = std::max(0.0, P(i, j) + settings_.omega_gauss_seidel * rhs[i - 1]);
+            P(i, j) = std::max(0.0, P(i, j) + w_gs * rhs[i - 1]);
             ++gs;
           }
         }
@@ -148,7 +149,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
   // negative is fixed at P = 0 (its change becomes -P / omega) and the line is
   // solved again, so that its neighbours do not count on a change that the
   // projection would undo; a few passes settle the active set.
-  const double omega = settings_.omega_gauss_seidel;
+  const double omega = settings_.omega_gauss_seidel * damping_;
   thread_local BandMatrix work(0, kHalfBand);
   thread_local std::vector<double> residual, fixed_change;
   residual = rhs;

@@ -42,6 +42,8 @@ class LineRelaxation {
   /// `sweeps` sweeps on N(P) = f; P >= 0 and P = 0 on the boundary are kept.
   void relax(Field& P, const Field& f, int sweeps);
   [[nodiscard]] const SweepStats& last_sweep() const { return stats_; }
+  /// Scales both under-relaxation factors of the settings by `factor` (1: as set).
+  void set_damping(double factor) { damping_ = factor; }
 
  private:
   void sweep(Field& P, const Field& f);
@@ -53,6 +55,7 @@ class LineRelaxation {
   RelaxationSettings settings_;
   Field jacobi_change_;
   SweepStats stats_;
+  double damping_ = 1.0;
 };
 
 }  // namespace ehlsim::reynolds
