@@ -85,7 +85,7 @@ struct ImpactConfig {
   // (seen as divergence at the dimple formation on 257^2); docs/model.md.
   double switch_ratio = 3.0;        ///< Gauss-Seidel / distributive Jacobi switch
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.2;        ///< under-relaxation of distributive changes
+  double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
   FaceMean face_mean = FaceMean::Arithmetic;
 
   // [output]

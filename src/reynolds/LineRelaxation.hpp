@@ -26,7 +26,7 @@ struct RelaxationSettings {
   /// Venner & Lubrecht use a value of about 0.3 for the analogous ratio.
   double switch_ratio = 3.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.2;        ///< under-relaxation of distributive changes
+  double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
 };
 
 /// Statistics of the last sweep (for diagnostics and tests).
