@@ -33,7 +33,8 @@ struct RunSummary {
   double T_max_force = 0.0;
   double min_h_center = 0.0;
   double T_min_h_center = 0.0;
-  double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT
+  double initial_force = 0.0;   ///< film force at T = 0 (quasi-static squeeze film)
+  double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT, from T = 0
   double wall_seconds = 0.0;
   int unconverged_steps = 0;    ///< steps that ended at solver.max_cycles above solver.tolerance
   int retried_steps = 0;        ///< steps solved again with more damping after diverging

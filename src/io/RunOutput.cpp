@@ -91,6 +91,7 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"T_max_force", s.T_max_force},
                   {"min_h_center", s.min_h_center},
                   {"T_min_h_center", s.T_min_h_center},
+                  {"initial_force", s.initial_force},
                   {"impulse", s.impulse},
                   {"unconverged_steps", s.unconverged_steps},
                   {"retried_steps", s.retried_steps}};
