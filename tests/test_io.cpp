@@ -3,6 +3,7 @@
 // RunOutput observer.
 #include <gtest/gtest.h>
 
+#include "support/SteelBall.hpp"
 #include "support/TempDir.hpp"
 
 #include <unistd.h>
@@ -405,14 +406,7 @@ TEST(Physical, ComputesMoesParametersAndScales) {
   const fs::path file = write_file(dir / "steel.toml", kSteelBall);
   const ImpactConfig c = load_config(file, {});
   ASSERT_TRUE(c.physical);
-  PhysicalCase p;
-  p.reduced_radius_m = 0.01;
-  p.mass_kg = sphere_mass(0.01, 7850.0);
-  p.impact_speed_m_s = 0.1;
-  p.reduced_modulus_Pa = reduced_modulus(210e9, 0.3, 210e9, 0.3);
-  p.eta0_Pa_s = 0.04;
-  p.alpha_per_Pa = 2e-8;
-  p = with_reference_scales(p);
+  const PhysicalCase p = ehlsim::testing::steel_ball();
   const MoesGroups g = moes_groups(p);
   EXPECT_DOUBLE_EQ(c.M, g.M);
   EXPECT_DOUBLE_EQ(c.L, g.L);

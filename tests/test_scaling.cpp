@@ -1,6 +1,8 @@
 // Moes parameters and physical reference scales (model.md).
 #include <gtest/gtest.h>
 
+#include "support/SteelBall.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -51,16 +53,7 @@ TEST(Scaling, ReducedModulusAndSphereMass) {
   EXPECT_LT(relative(sphere_mass(0.01, 7850.0), 7850.0 * 4.0 / 3.0 * kPi * 1e-6), 1e-15);
 }
 
-PhysicalCase steel_ball() {
-  PhysicalCase p;
-  p.reduced_radius_m = 0.01;
-  p.mass_kg = sphere_mass(0.01, 7850.0);
-  p.impact_speed_m_s = 0.1;
-  p.reduced_modulus_Pa = reduced_modulus(210e9, 0.3, 210e9, 0.3);
-  p.eta0_Pa_s = 0.04;
-  p.alpha_per_Pa = 2e-8;
-  return with_reference_scales(p);
-}
+using ehlsim::testing::steel_ball;
 
 TEST(Scaling, ReferenceScalesDefinitions) {
   const PhysicalCase p = steel_ball();
