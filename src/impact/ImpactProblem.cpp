@@ -147,7 +147,8 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
       P_before[k] = now;
     }
   } else {
-    P_before = solver->solution();  // step 1 starts from the initial pressure
+    // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
+    P_before = solver->solution();
   }
 
   // Cycles until the tolerance.  Should the iteration diverge (the highly
