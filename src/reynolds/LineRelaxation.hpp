@@ -23,7 +23,9 @@ namespace ehlsim::reynolds {
 struct RelaxationSettings {
   /// Switch: a point is relaxed by Gauss-Seidel where
   /// sum of face xi / h^2 >= switch_ratio * (b0/dT) rho K(0,0), else distributively.
-  /// Venner & Lubrecht use a value of about 0.3 for the analogous ratio.
+  /// Venner & Lubrecht use about 0.3 for their analogous ratio; 3 is needed
+  /// here because the deformation is updated only once per colour (see
+  /// ImpactConfig.hpp and docs/model.md).  The run's values come from ImpactConfig.
   double switch_ratio = 3.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
   double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
