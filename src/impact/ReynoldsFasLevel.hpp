@@ -36,16 +36,11 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
   /// resolve the free (cavitation) boundary, and its corrections there would
   /// undo what relaxation found, down to a cycle that stalls.
   void correct(Field& u, const Field& correction) override {
+    // The mask is taken before any point changes: it is a property of u as
+    // the coarse grid saw it.
     const int n = u.n();
-    for (int j = 1; j < n - 1; ++j) {
-      for (int i = 1; i < n - 1; ++i) {
-        if (u(i, j) > 0.0 && u(i - 1, j) > 0.0 && u(i + 1, j) > 0.0 && u(i, j - 1) > 0.0 &&
-            u(i, j + 1) > 0.0)
-          mask_(i, j) = 1;
-        else
-          mask_(i, j) = 0;
-      }
-    }
+    for (int j = 1; j < n - 1; ++j)
+      for (int i = 1; i < n - 1; ++i) mask_(i, j) = reynolds::is_pressurized(u, i, j) ? 1.0 : 0.0;
     for (int j = 1; j < n - 1; ++j)
       for (int i = 1; i < n - 1; ++i)
         if (mask_(i, j) != 0.0) u(i, j) = std::max(0.0, u(i, j) + correction(i, j));

@@ -108,10 +108,8 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
     const double flow = cw[i - 1] + ce[i - 1] + cs[i - 1] + cn[i - 1];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
-    const bool pressurized = P(i, j) > 0.0 && P(i - 1, j) > 0.0 && P(i + 1, j) > 0.0 &&
-                             P(i, j - 1) > 0.0 && P(i, j + 1) > 0.0;
-    is_jacobi[i - 1] =
-        elastic && pressurized && flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
+    is_jacobi[i - 1] = elastic && is_pressurized(P, i, j) &&
+                       flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
     rhs[i - 1] = f(i, j) - op_.apply_at(P, i, j);
   }
 

@@ -51,6 +51,13 @@ struct OperatorSettings {
   FaceMean face_mean = FaceMean::Arithmetic;
 };
 
+/// True where the interior point (i, j) and its four neighbours all carry
+/// pressure: inside the pressurized region, away from the cavitation boundary.
+inline bool is_pressurized(const Field& P, int i, int j) {
+  return P(i, j) > 0.0 && P(i - 1, j) > 0.0 && P(i + 1, j) > 0.0 && P(i, j - 1) > 0.0 &&
+         P(i, j + 1) > 0.0;
+}
+
 class ReynoldsOperator {
  public:
   ReynoldsOperator(const Grid2D& grid, const Lubricant& lubricant,
