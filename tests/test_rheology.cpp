@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "reynolds/ReynoldsOperator.hpp"
 #include "rheology/Lubricant.hpp"
 
 using namespace ehlsim;
@@ -138,4 +139,30 @@ TEST(Rheology, ValidateRejectsMissingParameters) {
   Lubricant dh;
   dh.density = DensityModel::DowsonHigginson;
   EXPECT_THROW(dh.validate(), std::invalid_argument);
+}
+
+// The logarithmic face mean is the exact flux of the Kirchhoff transform for
+// Barus at constant film: with xi(P) = exp(-alpha P), the 1-D flux between two
+// points is (Phi(P1) - Phi(P2)) / h, Phi(P) = Int_0^P xi = (1 - exp(-alpha P)) / alpha,
+// so mean(xi1, xi2) (P2 - P1) must equal Phi(P2) - Phi(P1) for every jump.
+TEST(FaceMean, LogarithmicMeanIsTheExactBarusFlux) {
+  using ehlsim::FaceMean;
+  using ehlsim::reynolds::face_coefficient;
+  constexpr double alpha = 16.91274;  // model.md, M = 100, L = 10
+  const auto xi = [&](double P) { return std::exp(-alpha * P); };
+  for (double P1 : {0.0, 0.3, 1.0}) {
+    for (double jump : {1e-7, 1e-3, 0.05, 0.5, 2.5}) {
+      const double P2 = P1 + jump;
+      // Phi(P2) - Phi(P1) without cancellation.
+      const double exact = -xi(P1) * std::expm1(-alpha * jump) / alpha;
+      const double log_flux = face_coefficient(xi(P1), xi(P2), FaceMean::Logarithmic) * jump;
+      EXPECT_NEAR(log_flux / exact, 1.0, 1e-9) << "P1 = " << P1 << ", jump " << jump;
+      if (alpha * jump > 5.0) {
+        // Across an unresolved jump the arithmetic mean overestimates the flux
+        // and the harmonic one underestimates it, both by large factors.
+        EXPECT_GT(face_coefficient(xi(P1), xi(P2), FaceMean::Arithmetic) * jump, 2.0 * exact);
+        EXPECT_LT(face_coefficient(xi(P1), xi(P2), FaceMean::Harmonic) * jump, 0.5 * exact);
+      }
+    }
+  }
 }

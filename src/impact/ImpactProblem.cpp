@@ -55,8 +55,9 @@ struct ImpactProblem::Impl {
   double solve_time_step(int step, const BallState& ball, double force_guess);
   /// The quasi-static film pressure at T = 0; returns its force.
   double solve_initial_pressure();
-  /// The multigrid cycles of one step from the current approximation.
-  double iterate_time_step(int step, const BallState& ball);
+  /// The multigrid cycles of one step from the current approximation; false
+  /// when max_cycles ended above the tolerance.  Throws on divergence.
+  bool iterate_time_step(int step, const BallState& ball);
   StepRecord make_record(int step, const BallState& ball, double force) const;
 
   ImpactConfig cfg;
@@ -139,37 +140,69 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
   set_delta(newmark.delta_for_force(ball, force_guess));
   if (step > 2) {
     // Linear extrapolation in time of the pressure: the initial approximation
-    // is then O(dT^2) from the new solution instead of O(dT).
+    // is then O(dT^2) from the new solution instead of O(dT) where the
+    // pressure is smooth.  A spike that moves by a fraction of a mesh size per
+    // step is not smooth in time, and extrapolating it can start the step far
+    // worse than the last solution does; the start with the smaller residual
+    // is taken.
     Field& P = solver->solution();
-    for (std::size_t k = 0; k < P.size(); ++k) {
-      const double now = P[k];
-      P[k] = std::max(0.0, 2.0 * now - P_before[k]);
-      P_before[k] = now;
-    }
+    const Field last = P;
+    for (std::size_t k = 0; k < P.size(); ++k)
+      P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
+    const double extrapolated_residual = solver->residual_norm();
+    const Field extrapolated = P;
+    P = last;
+    if (solver->residual_norm() > extrapolated_residual) P = extrapolated;
+    P_before = last;
   } else {
     // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
     P_before = solver->solution();
   }
 
-  // Cycles until the tolerance.  Should the iteration diverge (the highly
-  // nonlinear moments: dimple formation, collapse of the entrapped pocket before
-  // lift-off), the step starts again from the same initial approximation with
-  // the under-relaxation halved, up to kMaxRetries times.
+  // Cycles until the tolerance.  Should the iteration diverge or stall above
+  // the tolerance (the highly nonlinear moments: dimple formation, the spike
+  // and the collapse of the entrapped pocket before lift-off), the step starts
+  // again from the same initial approximation with the under-relaxation
+  // halved, up to kMaxRetries times.  If no attempt converges, the attempt
+  // with the smallest residual is kept and the step is counted as unconverged.
   const Field start = solver->solution();
   const double start_delta = levels.front()->op().delta();
+  reynolds::ReynoldsOperator& fine = levels.front()->op();
+  Field best;
+  double best_residual = std::numeric_limits<double>::infinity();
+  double best_delta = start_delta;
+  int best_cycles = 0;
   for (int attempt = 0;; ++attempt) {
     const double damping = std::pow(kRetryDamping, attempt);
     for (auto& level : levels) level->smoother().set_damping(damping);
+    bool converged = false;
     try {
-      const double force = iterate_time_step(step, ball);
-      if (attempt > 0) ++retried_steps;
-      return force;
+      converged = iterate_time_step(step, ball);
     } catch (const std::runtime_error&) {
-      if (attempt == kMaxRetries) throw;
-      solver->solution() = start;
-      set_delta(start_delta);
+      if (attempt == kMaxRetries && best.size() == 0) throw;
     }
+    if (converged) {
+      if (attempt > 0) ++retried_steps;
+      return fine.force(solver->solution());
+    }
+    if (std::isfinite(last_residual) && last_residual < best_residual) {
+      best = solver->solution();
+      best_residual = last_residual;
+      best_delta = fine.delta();
+      best_cycles = last_cycles;
+    }
+    if (attempt == kMaxRetries) break;
+    solver->solution() = start;
+    set_delta(start_delta);
   }
+  ++unconverged_steps;
+  ++retried_steps;
+  solver->solution() = best;
+  set_delta(best_delta);
+  fine.update_coefficients(best);
+  last_residual = best_residual;
+  last_cycles = best_cycles;
+  return fine.force(best);
 }
 
 double ImpactProblem::Impl::solve_initial_pressure() {
@@ -195,15 +228,13 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   return fine.force(solver->solution());
 }
 
-double ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
+bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
   reynolds::ReynoldsOperator& fine = levels.front()->op();
   const double initial_residual = solver->residual_norm();
   if (monitor) monitor(step, 0, initial_residual);
-  double force = 0.0;
   for (int c = 1; c <= cfg.max_cycles; ++c) {
     solver->cycle();
-    force = fine.force(solver->solution());
-    set_delta(newmark.delta_for_force(ball, force));
+    set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
     last_residual = solver->residual_norm();
     last_cycles = c;
     if (monitor) monitor(step, c, last_residual);
@@ -212,12 +243,9 @@ double ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
           "{:.3e} at the start of the step)",
           step, ball.T + dT, last_residual, initial_residual));
-    if (last_residual < cfg.tolerance) return fine.force(solver->solution());
+    if (last_residual < cfg.tolerance) return true;
   }
-  // Not converged to the tolerance within max_cycles but not diverging either:
-  // the step is kept (its residual is in the time series) and counted.
-  ++unconverged_steps;
-  return fine.force(solver->solution());
+  return false;
 }
 
 StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,

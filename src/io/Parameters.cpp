@@ -140,6 +140,21 @@ const int kDefaultPostSweeps = kDefaults.post_sweeps;
 const int kDefaultCoarsestPoints = kDefaults.coarsest_points;
 constexpr std::string_view kArithmetic = "arithmetic";
 constexpr std::string_view kHarmonic = "harmonic";
+constexpr std::string_view kLogarithmic = "logarithmic";
+
+FaceMean face_mean_from_text(std::string_view text) {
+  if (text == kHarmonic) return FaceMean::Harmonic;
+  if (text == kLogarithmic) return FaceMean::Logarithmic;
+  return FaceMean::Arithmetic;
+}
+std::string_view face_mean_text(FaceMean mean) {
+  switch (mean) {
+    case FaceMean::Harmonic: return kHarmonic;
+    case FaceMean::Logarithmic: return kLogarithmic;
+    case FaceMean::Arithmetic: break;
+  }
+  return kArithmetic;
+}
 
 std::vector<ParameterSpec> build_registry() {
   const std::optional<Bound> none;
@@ -234,7 +249,8 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(real("solver.tolerance", kDefaultTolerance, "", above(0), none, "",
                    "a step has converged when the scaled finest-grid residual is below this"));
   r.push_back(integer("solver.max_cycles", kDefaultMaxCycles, at_least(1), none, false,
-                      "multigrid cycles per time step before giving up"));
+                      "multigrid cycles per attempt of a time step (a stalled step is retried "
+                      "with more damping)"));
   r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
@@ -252,9 +268,9 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(real("solver.omega_jacobi", kDefaults.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
   r.push_back(choice("solver.face_mean", kArithmetic,
-                     {std::string(kArithmetic), std::string(kHarmonic)},
-                     "flow coefficient on a cell face: arithmetic (Venner & Lubrecht) or harmonic "
-                     "mean of the two points"));
+                     {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
+                     "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
+                     "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
   return r;
 }
 
@@ -860,8 +876,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.switch_ratio = in.real("solver.switch_ratio");
   c.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
   c.omega_jacobi = in.real("solver.omega_jacobi");
-  c.face_mean = in.get<std::string>("solver.face_mean") == kHarmonic ? FaceMean::Harmonic
-                                                                    : FaceMean::Arithmetic;
+  c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                       : DeformationMethod::Fft;
 
@@ -969,7 +984,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"switch_ratio", c.switch_ratio},
                  {"omega_gauss_seidel", c.omega_gauss_seidel},
                  {"omega_jacobi", c.omega_jacobi},
-                 {"face_mean", c.face_mean == FaceMean::Harmonic ? kHarmonic : kArithmetic}};
+                 {"face_mean", face_mean_text(c.face_mean)}};
   return j;
 }
 

@@ -5,6 +5,6 @@
 namespace ehlsim {
 
 /// Mean of the flow coefficient xi of two neighbouring points on their face.
-enum class FaceMean { Arithmetic, Harmonic };
+enum class FaceMean { Arithmetic, Harmonic, Logarithmic };
 
 }  // namespace ehlsim
