@@ -2,6 +2,8 @@
 //
 //   ehlsim impact [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--quiet]
 //   ehlsim impact --help        (lists every parameter with default and range)
+//   ehlsim spike RUN_DIR [--out DIR] [--set spike.KEY=VALUE]... [--quiet]
+//   ehlsim study [--grid N] [--out DIR] [--jobs J] [--set KEY=VALUE]... [--no-plots]
 //   ehlsim --version
 //
 // Exit codes: 0 success; 1 the run failed (solver, file system); 2 bad input
@@ -9,7 +11,7 @@
 // "ehlsim: error: <message>".
 //
 // Each subcommand is a pair add_<name>_command (options) / run_<name> (action);
-// further subcommands (spike, study) plug in the same way in main().
+// the study driver is in apps/Study.cpp.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -27,23 +29,21 @@
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
+#include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
+#include "io/RunAnalysis.hpp"
 #include "io/RunOutput.hpp"
+#include "io/SpikeWriter.hpp"
+#include "Study.hpp"
 
 namespace {
 
 using namespace ehlsim;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitBadInput = 2;
-
-void print_error(std::string_view message) {
-  std::string line(message);
-  std::replace(line.begin(), line.end(), '\n', ' ');
-  std::replace(line.begin(), line.end(), '\r', ' ');
-  std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
-}
+using cli::kExitBadInput;
+using cli::kExitFailure;
+using cli::kExitOk;
+using cli::print_error;
 
 // ---------------------------------------------------------------------------
 // ehlsim impact
@@ -149,11 +149,53 @@ int run_impact(const ImpactOptions& options) {
                                                   : nlohmann::json(options.config_file)},
       {"overrides", options.overrides},
       {"out", options.out_dir}};
+  // spike.csv first: run.json, written last by RunOutput, marks a complete run.
+  SpikeOutput spike(options.out_dir, config);
   RunOutput output(options.out_dir, config, !options.quiet, invocation);
+  output.add_file("spike", SpikeOutput::kFile);
+  ObserverChain observers({&spike, &output});
   ImpactProblem problem(config);
-  const RunSummary summary = problem.run(output);
-  if (!output.committed()) output.on_finish(summary);
+  const RunSummary summary = problem.run(observers);
+  if (!output.committed()) observers.on_finish(summary);
   if (!options.quiet) print_summary(summary, output);
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------
+// ehlsim spike
+// ---------------------------------------------------------------------------
+
+struct SpikeOptions {
+  std::string run_dir;
+  std::string out_dir;  ///< "" = the run directory
+  std::vector<std::string> overrides;
+  bool quiet = false;
+};
+
+CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
+  CLI::App* cmd = app.add_subcommand(
+      "spike", "Spike analysis of every snapshot of a finished run (fields.nc, run.json).");
+  cmd->add_option("run_dir", options.run_dir, "run directory of `ehlsim impact`")->required();
+  cmd->add_option("-o,--out", options.out_dir,
+                  "where to write spike_snapshots.csv, spike_profiles.csv and axis_profiles.csv "
+                  "(default: the run directory)");
+  cmd->add_option("--set", options.overrides,
+                  "override a spike.* setting of the run, e.g. --set spike.filter=gaussian")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  return cmd;
+}
+
+int run_spike(const SpikeOptions& options) {
+  const std::filesystem::path out = options.out_dir.empty() ? options.run_dir : options.out_dir;
+  const RunAnalysisReport report = analyze_run_directory(options.run_dir, out, options.overrides);
+  if (!options.quiet) {
+    fmt::print("{} snapshots analysed; wrote", report.snapshots);
+    for (const auto& file : report.files) fmt::print(" {}", file.string());
+    fmt::print("\n");
+  }
   return kExitOk;
 }
 
@@ -164,6 +206,10 @@ int run(int argc, char** argv) {
 
   ImpactOptions impact;
   CLI::App* impact_cmd = add_impact_command(app, impact);
+  SpikeOptions spike;
+  CLI::App* spike_cmd = add_spike_command(app, spike);
+  StudyOptions study;
+  CLI::App* study_cmd = add_study_command(app, study);
 
   try {
     app.parse(argc, argv);
@@ -175,6 +221,8 @@ int run(int argc, char** argv) {
     return kExitBadInput;
   }
   if (impact_cmd->parsed()) return run_impact(impact);
+  if (spike_cmd->parsed()) return run_spike(spike);
+  if (study_cmd->parsed()) return run_study(study);
   print_error("no command given (try ehlsim --help)");
   return kExitBadInput;
 }

@@ -164,6 +164,59 @@ TEST(Cli, TinyRun) {
   }
 }
 
+TEST(Cli, BadSpikeKeys) {
+  expect_bad_input(ehlsim("impact --set spike.filter=median"),
+                   "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
+  expect_bad_input(ehlsim("impact --set spike.smoothing_points=0"),
+                   "spike.smoothing_points = 0: must be >= 1 (--set)");
+  expect_bad_input(ehlsim("impact --set spike.cutoff_meshes=0.2"),
+                   "spike.cutoff_meshes = 0.2: must be > 2 spike.resample_meshes = 0.25 (the "
+                   "shortest wave the resampled profile carries) (--set)");
+  expect_bad_input(ehlsim("impact --set spike.min_height=2"), "spike.min_height = 2: must be in [0, 1] (--set)");
+}
+
+TEST(Cli, SpikeOnABadRunDirectory) {
+  TempDir dir;
+  const std::string missing = (dir / "missing").string();
+  expect_bad_input(ehlsim("spike --quiet " + quote(missing)),
+                   "run directory '" + missing + "' does not exist or is not a directory");
+  const std::string empty = (dir / "empty").string();
+  fs::create_directories(empty);
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "cannot read '" + empty + "/run.json': not a complete ehlsim run directory "
+                   "(run.json is written last, when the run has finished)");
+  // A run.json without fields.nc: the NetCDF error, on one line.
+  write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  const Result r = ehlsim("spike --quiet " + quote(empty));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("ehlsim: error: cannot read '" + empty + "/fields.nc'", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set case.M=3"),
+                   "--set 'case.M=3': only spike.* keys apply to an analysis of a finished run");
+}
+
+TEST(Cli, SpikeFilesOfARun) {
+  TempDir dir;
+  const fs::path run = dir / "run";
+  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
+                          "--set time.T_end=0.4 --set output.snapshot_every=2 --quiet --out " +
+                          quote(run.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string spike = read_file(run / "spike.csv");
+  EXPECT_EQ(spike.rfind("T,R_s,P_s,V_s,A_dry,X_s,P_xs\n", 0), 0u);
+  const std::string series = read_file(run / "timeseries.csv");
+  EXPECT_EQ(std::count(spike.begin(), spike.end(), '\n'), std::count(series.begin(), series.end(), '\n'));
+  const Result offline = ehlsim("spike --quiet " + quote(run.string()));
+  ASSERT_EQ(offline.exit_code, 0) << offline.err;
+  for (const char* name : {"spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv"}) {
+    EXPECT_TRUE(fs::exists(run / name)) << name;
+  }
+  EXPECT_EQ(read_file(run / "spike_snapshots.csv").rfind("T,R_s,P_s,V_s,A_dry,X_s,P_xs\n", 0), 0u);
+  for (const auto& entry : fs::directory_iterator(run)) {
+    EXPECT_NE(entry.path().extension(), ".part") << entry.path();
+  }
+}
+
 TEST(Cli, RunEchoesTheParameters) {
   TempDir dir;
   const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/SpikeSettings.hpp"
 #include "reynolds/FaceMean.hpp"
 
 #include "rheology/Models.hpp"
@@ -93,6 +94,10 @@ struct ImpactConfig {
   // [output]
   int snapshot_every = 20;
   std::vector<double> snapshot_times;
+  double snapshot_start = 0.0;  ///< the periodic snapshots begin at this time
+
+  // [spike] the pressure-spike analysis (spike.csv, `ehlsim spike`)
+  SpikeSettings spike;
 };
 
 }  // namespace ehlsim

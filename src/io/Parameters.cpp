@@ -156,6 +156,41 @@ std::string_view face_mean_text(FaceMean mean) {
   return kArithmetic;
 }
 
+// [spike] and output.snapshot_start: the settings of the spike analysis
+// (analysis/SpikeSettings.hpp; docs/model.md, "Spike analysis").
+const SpikeSettings kDefaultSpike{};
+constexpr std::string_view kButterworth = "butterworth";
+constexpr std::string_view kGaussian = "gaussian";
+constexpr std::string_view kNoFilter = "none";
+
+SpikeFilter spike_filter_from_text(std::string_view text) {
+  if (text == kGaussian) return SpikeFilter::Gaussian;
+  if (text == kNoFilter) return SpikeFilter::None;
+  return SpikeFilter::Butterworth;
+}
+
+void add_spike_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
+  r.push_back(real("output.snapshot_start", kDefaults.snapshot_start, "", at_least(0), none, "",
+                   "the snapshots every output.snapshot_every steps begin at this time"));
+  r.push_back(integer("spike.smoothing_points", kDefaultSpike.smoothing_points, at_least(1), none,
+                      false, "moving average of the R-sorted P(R) over this many points (paper: 20)"));
+  r.push_back(choice("spike.filter", spike_filter_text(kDefaultSpike.filter),
+                     {std::string(kButterworth), std::string(kGaussian), std::string(kNoFilter)},
+                     "zero-phase low-pass after the average: butterworth (2nd order, forward and "
+                     "back), gaussian (ISO 16610-21) or none"));
+  r.push_back(real("spike.cutoff_meshes", kDefaultSpike.cutoff_meshes, "", above(0), none, "",
+                   "cut-off wavelength of the filter in mesh sizes (amplitude 1/2 there); "
+                   "> 2 spike.resample_meshes"));
+  r.push_back(real("spike.resample_meshes", kDefaultSpike.resample_meshes, "", above(0), at_most(1),
+                   "", "spacing of the uniform R grid the filter works on, in mesh sizes"));
+  r.push_back(real("spike.min_height", kDefaultSpike.min_height, "", at_least(0), at_most(1), "",
+                   "the spike is at least this fraction of the largest filtered pressure"));
+  r.push_back(real("spike.min_prominence", kDefaultSpike.min_prominence, "", at_least(0),
+                   at_most(1), "",
+                   "and rises this fraction of it above the lowest point inward of it"));
+}
+
 std::vector<ParameterSpec> build_registry() {
   const std::optional<Bound> none;
   const std::optional<double> no_default;
@@ -271,6 +306,7 @@ std::vector<ParameterSpec> build_registry() {
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
+  add_spike_parameters(r);
   return r;
 }
 
@@ -374,6 +410,7 @@ const std::vector<SectionSpec>& parameter_sections() {
       {"surface", "optional surface waviness"},
       {"output", "what is written to the run directory"},
       {"solver", "multigrid settings"},
+      {"spike", "the pressure-spike analysis (spike.csv, ehlsim spike; docs/model.md)"},
   };
   return sections;
 }
@@ -890,6 +927,23 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   }
 }
 
+void assemble_spike(const Inputs& in, ImpactConfig& c) {
+  c.snapshot_start = in.real("output.snapshot_start");
+  SpikeSettings& s = c.spike;
+  s.smoothing_points = in.integer("spike.smoothing_points");
+  s.filter = spike_filter_from_text(in.get<std::string>("spike.filter"));
+  s.cutoff_meshes = in.real("spike.cutoff_meshes");
+  s.resample_meshes = in.real("spike.resample_meshes");
+  s.min_height = in.real("spike.min_height");
+  s.min_prominence = in.real("spike.min_prominence");
+  if (s.filter != SpikeFilter::None && !(s.cutoff_meshes > 2.0 * s.resample_meshes)) {
+    in.fail("spike.cutoff_meshes",
+            fmt::format("must be > 2 spike.resample_meshes = {:g} (the shortest wave the "
+                        "resampled profile carries)",
+                        2.0 * s.resample_meshes));
+  }
+}
+
 }  // namespace
 
 ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
@@ -901,6 +955,7 @@ ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
   assemble_case(inputs, config);
   assemble_lubricant(inputs, config);
   assemble_rest(inputs, config);
+  assemble_spike(inputs, config);
   return config;
 }
 
@@ -941,6 +996,15 @@ std::string describe_parameters() {
 double effective_time_step(const ImpactConfig& config) {
   if (config.dT > 0.0) return config.dT;
   return Grid2D(config.grid_points, config.half_width).h();
+}
+
+std::string_view spike_filter_text(SpikeFilter filter) {
+  switch (filter) {
+    case SpikeFilter::Gaussian: return kGaussian;
+    case SpikeFilter::None: return kNoFilter;
+    case SpikeFilter::Butterworth: break;
+  }
+  return kButterworth;
 }
 
 nlohmann::json effective_parameters_json(const ImpactConfig& c) {
@@ -985,6 +1049,13 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"omega_gauss_seidel", c.omega_gauss_seidel},
                  {"omega_jacobi", c.omega_jacobi},
                  {"face_mean", face_mean_text(c.face_mean)}};
+  j["output"]["snapshot_start"] = c.snapshot_start;
+  j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
+                {"filter", spike_filter_text(c.spike.filter)},
+                {"cutoff_meshes", c.spike.cutoff_meshes},
+                {"resample_meshes", c.spike.resample_meshes},
+                {"min_height", c.spike.min_height},
+                {"min_prominence", c.spike.min_prominence}};
   return j;
 }
 

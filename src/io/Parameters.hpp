@@ -119,5 +119,6 @@ inline constexpr int kMinCoarsestPoints = 5;
 [[nodiscard]] std::string_view density_model_text(DensityModel model);
 [[nodiscard]] std::string_view cycle_type_text(CycleType cycle);
 [[nodiscard]] std::string_view deformation_method_text(DeformationMethod method);
+[[nodiscard]] std::string_view spike_filter_text(SpikeFilter filter);
 
 }  // namespace ehlsim

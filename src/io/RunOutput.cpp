@@ -16,6 +16,11 @@ namespace {
 /// (time steps accumulate rounding errors).
 constexpr double kSnapshotTimeTolerance = 1e-9;
 
+/// T has reached t, up to the rounding of accumulated time steps.
+bool at_or_after(double T, double t) {
+  return T >= t - kSnapshotTimeTolerance * std::max(1.0, std::abs(t));
+}
+
 nlohmann::json number_or_null(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
@@ -46,10 +51,14 @@ void RunOutput::on_start(const Grid2D& grid) {
 
 void RunOutput::on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) {
   timeseries_->append(record);
-  bool store = snapshot;
+  // output.snapshot_start delays the periodic snapshots only: the last step
+  // (lift-off, where no pressure is left, or T_end) is always stored.
+  const bool last_step = !(record.p_max > 0.0) ||
+                         (std::isfinite(config_.T_end) && at_or_after(record.T, config_.T_end));
+  bool store = snapshot && (at_or_after(record.T, config_.snapshot_start) || last_step);
   while (next_snapshot_time_ < snapshot_times_.size()) {
     const double t = snapshot_times_[next_snapshot_time_];
-    if (record.T < t - kSnapshotTimeTolerance * std::max(1.0, std::abs(t))) break;
+    if (!at_or_after(record.T, t)) break;
     store = true;
     ++next_snapshot_time_;
   }
@@ -101,6 +110,7 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                 {"timeseries_rows", steps_written()},
                 {"fields", kFieldsFile},
                 {"snapshots", snapshots_written()}};
+  j["files"].update(extra_files_);
   return j;
 }
 

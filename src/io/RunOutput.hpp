@@ -3,8 +3,9 @@
 //
 //   timeseries.csv  one row per time step
 //   fields.nc       P and H snapshots: every output.snapshot_every steps (the
-//                   solver's `snapshot` flag) and the first step at or after
-//                   each time in output.snapshot_times
+//                   solver's `snapshot` flag) from output.snapshot_start on,
+//                   the first step at or after each time in
+//                   output.snapshot_times, and the last step
 //   run.json        effective parameters, program version, grid, time step,
 //                   results (lift-off, rebound speed, max force, ...), wall time
 //
@@ -16,6 +17,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -54,6 +56,9 @@ class RunOutput final : public ImpactObserver {
   /// Wall time since construction [s].
   [[nodiscard]] double elapsed_seconds() const;
   [[nodiscard]] std::size_t snapshots_written() const;
+  /// Names a further file of the run directory in run.json's "files" (e.g.
+  /// "spike": "spike.csv", written by another observer).
+  void add_file(const std::string& key, std::string_view name) { extra_files_[key] = name; }
   /// The run.json document for a summary (what on_finish writes).
   [[nodiscard]] nlohmann::json run_json(const RunSummary& summary) const;
 
@@ -62,6 +67,7 @@ class RunOutput final : public ImpactObserver {
   ImpactConfig config_;
   nlohmann::json invocation_;
   nlohmann::json parameters_;
+  nlohmann::json extra_files_ = nlohmann::json::object();
   Grid2D grid_;
   std::vector<double> snapshot_times_;  ///< sorted
   std::size_t next_snapshot_time_ = 0;

@@ -2,11 +2,10 @@
 // timeseries.csv: one row per time step (StepRecord), written atomically.
 #include <cstddef>
 #include <filesystem>
-#include <fstream>
 #include <string_view>
 
 #include "impact/ImpactObserver.hpp"
-#include "io/AtomicFile.hpp"
+#include "io/CsvWriter.hpp"
 
 namespace ehlsim {
 
@@ -17,23 +16,17 @@ class TimeSeriesWriter {
       "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual";
 
   /// Opens "<path>.part" and writes the header.  Throws std::runtime_error.
-  explicit TimeSeriesWriter(const std::filesystem::path& path);
-  TimeSeriesWriter(const TimeSeriesWriter&) = delete;
-  TimeSeriesWriter& operator=(const TimeSeriesWriter&) = delete;
+  explicit TimeSeriesWriter(const std::filesystem::path& path) : csv_(path, kHeader) {}
 
   /// One row; numbers with 10 significant digits.
   void append(const StepRecord& record);
   /// Flushes, closes and renames to the final name.
-  void commit();
-  [[nodiscard]] std::size_t rows() const { return rows_; }
-  [[nodiscard]] const std::filesystem::path& path() const { return file_.final_path(); }
+  void commit() { csv_.commit(); }
+  [[nodiscard]] std::size_t rows() const { return csv_.rows(); }
+  [[nodiscard]] const std::filesystem::path& path() const { return csv_.path(); }
 
  private:
-  void check(const char* what) const;
-
-  PartialFile file_;   // declared first: destroyed after the stream is closed
-  std::ofstream out_;
-  std::size_t rows_ = 0;
+  CsvWriter csv_;
 };
 
 }  // namespace ehlsim

@@ -1,0 +1,297 @@
+// ehlsim study: runs the paper's cases M = 10, 20, 50, 100 with L = 10 as
+// child processes of this binary (`ehlsim impact`, one OpenMP thread each,
+// --jobs at a time), analyses their snapshots (`ehlsim spike`), writes the dry
+// Hertz reference and draws the figures with scripts/plot_study.py.
+//
+//   <out>/M<M>/            the run of each case (timeseries.csv, spike.csv,
+//                          fields.nc, run.json, spike_*.csv, axis_profiles.csv)
+//   <out>/logs/M<M>.log    the output of each child
+//   <out>/dry.csv          T, A_dry of the dry Hertz impact (same Delta0, V0)
+//   <out>/study.json       grid, cases, exit codes, wall times
+//   <out>/figures/         fig1..fig6 and the histories, PNG + CSV
+#include "Study.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+
+#include "analysis/SpikeAnalysis.hpp"
+#include "io/AtomicFile.hpp"
+#include "io/CsvWriter.hpp"
+#include "io/Parameters.hpp"
+#include "io/RunAnalysis.hpp"
+
+extern char** environ;
+
+namespace cli {
+
+void print_error(std::string_view message) {
+  std::string line(message);
+  std::replace(line.begin(), line.end(), '\n', ' ');
+  std::replace(line.begin(), line.end(), '\r', ' ');
+  std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
+}
+
+}  // namespace cli
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace ehlsim;
+using cli::kExitOk;
+
+/// The paper's cases (Lubrecht & Venner 2022, figure 5): M = 10, 20, 50, 100, L = 10.
+constexpr double kStudyM[] = {100.0, 50.0, 20.0, 10.0};  // longest first
+constexpr double kStudyL = 10.0;
+/// Times of the paper's figures 1-3: the first spike profile (3.223) and the
+/// comparison of P(X) with P(R) (3.574).
+constexpr double kFigureTimes[] = {3.223, 3.574};
+/// Figures 3 and 4 (M = 100): profiles from T = 3.223 every 20 steps, and the
+/// last ones before lift-off every 2 steps: snapshots every 2 steps from 3.223.
+constexpr double kProfileCaseM = 100.0;
+constexpr int kProfileSnapshotEvery = 2;
+constexpr double kProfileSnapshotStart = 3.223;
+/// Exit code reported for a child killed by a signal.
+constexpr int kExitSignalled = 128;
+/// The child process image: this very binary.
+constexpr const char* kSelf = "/proc/self/exe";
+
+std::string case_name(double M) { return fmt::format("M{:g}", M); }
+
+struct Case {
+  double M = 0.0;
+  std::vector<std::string> overrides;
+  fs::path dir;
+  fs::path log;
+  pid_t pid = -1;
+  int exit_code = -1;
+  double wall_seconds = 0.0;
+  std::chrono::steady_clock::time_point start;
+};
+
+std::vector<Case> study_cases(const StudyOptions& options, const fs::path& out) {
+  std::vector<Case> cases;
+  for (const double M : kStudyM) {
+    Case c;
+    c.M = M;
+    c.dir = out / case_name(M);
+    c.log = out / "logs" / (case_name(M) + ".log");
+    // The user's settings first; the study's own keys win.
+    c.overrides = options.overrides;
+    c.overrides.push_back(fmt::format("case.M={:g}", M));
+    c.overrides.push_back(fmt::format("case.L={:g}", kStudyL));
+    c.overrides.push_back(fmt::format("grid.points={}", options.grid));
+    c.overrides.push_back(fmt::format("output.snapshot_times=[{}]", fmt::join(kFigureTimes, ", ")));
+    if (M == kProfileCaseM) {
+      c.overrides.push_back(fmt::format("output.snapshot_every={}", kProfileSnapshotEvery));
+      c.overrides.push_back(fmt::format("output.snapshot_start={:g}", kProfileSnapshotStart));
+    }
+    cases.push_back(std::move(c));
+  }
+  return cases;
+}
+
+/// The environment with OMP_NUM_THREADS=1 (the study runs its cases side by side).
+std::vector<std::string> child_environment() {
+  std::vector<std::string> env;
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::strncmp(*e, "OMP_NUM_THREADS=", std::strlen("OMP_NUM_THREADS=")) != 0) env.emplace_back(*e);
+  }
+  env.emplace_back("OMP_NUM_THREADS=1");
+  return env;
+}
+
+std::vector<char*> c_strings(std::vector<std::string>& strings) {
+  std::vector<char*> out;
+  for (std::string& s : strings) out.push_back(s.data());
+  out.push_back(nullptr);
+  return out;
+}
+
+/// Starts `program args...` with stdout and stderr to `log`; throws on failure.
+pid_t spawn(const std::string& program, std::vector<std::string> args, const fs::path& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  std::vector<std::string> env = child_environment();
+  std::vector<char*> argv = c_strings(args);
+  std::vector<char*> envp = c_strings(env);
+  pid_t pid = -1;
+  const int status = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  if (status != 0) {
+    throw std::runtime_error(fmt::format("cannot start '{}': {}", program, std::strerror(status)));
+  }
+  return pid;
+}
+
+int exit_code_of(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : kExitSignalled; }
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// The last line of a log (the child's error message).
+std::string last_line(const fs::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::string last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  return last;
+}
+
+void run_cases(std::vector<Case>& cases, int jobs) {
+  std::map<pid_t, Case*> running;
+  std::size_t next = 0;
+  while (next < cases.size() || !running.empty()) {
+    while (next < cases.size() && static_cast<int>(running.size()) < jobs) {
+      Case& c = cases[next++];
+      std::vector<std::string> args = {"ehlsim", "impact", "--out", c.dir.string()};
+      for (const std::string& o : c.overrides) {
+        args.push_back("--set");
+        args.push_back(o);
+      }
+      c.start = std::chrono::steady_clock::now();
+      c.pid = spawn(kSelf, args, c.log);
+      running[c.pid] = &c;
+      fmt::print("  started  M = {:<4g} (pid {}, log {})\n", c.M, c.pid, c.log.string());
+      std::fflush(stdout);
+    }
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    Case& c = *it->second;
+    running.erase(it);
+    c.exit_code = exit_code_of(status);
+    c.wall_seconds = seconds_since(c.start);
+    if (c.exit_code == kExitOk) {
+      fmt::print("  finished M = {:<4g} in {:.1f} s\n", c.M, c.wall_seconds);
+    } else {
+      fmt::print("  FAILED   M = {:<4g} after {:.1f} s (exit {}): {}\n", c.M, c.wall_seconds,
+                 c.exit_code, last_line(c.log));
+    }
+    std::fflush(stdout);
+  }
+}
+
+void write_dry_reference(const fs::path& path, const ImpactConfig& config) {
+  const DryContactRadius dry(config.Delta0, config.V0);
+  const double dT = effective_time_step(config);
+  CsvWriter csv(path, "T,A_dry");
+  for (int k = 0;; ++k) {
+    const double T = k * dT;
+    if (T > dry.T_lift_off() + dT || (!std::isfinite(dry.T_lift_off()) && k > 0)) break;
+    csv.append(fmt::format("{:.10g},{:.10g}", T, dry.at(T)));
+  }
+  csv.commit();
+}
+
+fs::path default_plot_script() { return fs::path(EHLSIM_SCRIPT_DIR) / "plot_study.py"; }
+
+}  // namespace
+
+CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
+  CLI::App* cmd = app.add_subcommand(
+      "study", "The paper's spike study: M = 10, 20, 50, 100 (L = 10) in parallel, the dry "
+               "reference, the spike analysis and the figures fig1..fig6.");
+  cmd->add_option("-g,--grid", options.grid, "points per side (2^k + 1; the paper used 1025)")
+      ->capture_default_str();
+  cmd->add_option("-o,--out", options.out_dir, "study directory (created if missing)")
+      ->capture_default_str();
+  cmd->add_option("-j,--jobs", options.jobs, "cases run at the same time (one thread each)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--set", options.overrides,
+                  "passed to every case before the study's own keys, e.g. --set solver.max_cycles=30")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_flag("--no-plots", options.no_plots, "skip the figure script");
+  cmd->add_option("--python", options.python, "Python 3 with numpy and matplotlib")
+      ->capture_default_str();
+  cmd->add_option("--plot-script", options.plot_script,
+                  "figure script (default: " + default_plot_script().string() + ")");
+  return cmd;
+}
+
+int run_study(const StudyOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path out = options.out_dir;
+  std::vector<Case> cases = study_cases(options, out);
+  ImpactConfig reference;
+  for (const Case& c : cases) {
+    reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError, before any run
+  }
+  const fs::path script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
+  if (!options.no_plots && !fs::exists(script)) {
+    throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
+  }
+  fs::create_directories(out / "logs");
+  fmt::print("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, {} at a time\n", out.string(),
+             fmt::join(kStudyM, ", "), kStudyL, options.grid, options.jobs);
+  std::fflush(stdout);
+  run_cases(cases, options.jobs);
+
+  bool ok = true;
+  nlohmann::json summary = {{"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
+                            {"grid", options.grid},
+                            {"L", kStudyL},
+                            {"overrides", options.overrides},
+                            {"cases", nlohmann::json::array()}};
+  for (const Case& c : cases) {
+    nlohmann::json entry = {{"M", c.M}, {"dir", c.dir.filename().string()}, {"exit_code", c.exit_code},
+                            {"wall_seconds", c.wall_seconds}};
+    if (c.exit_code == cli::kExitOk) {
+      const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
+      entry["snapshots"] = report.snapshots;
+    } else {
+      ok = false;
+    }
+    summary["cases"].push_back(entry);
+  }
+  write_dry_reference(out / "dry.csv", reference);
+  summary["runs_wall_seconds"] = seconds_since(start);
+
+  if (!options.no_plots) {
+    const auto plot_start = std::chrono::steady_clock::now();
+    const fs::path log = out / "logs" / "plot.log";
+    int status = 0;
+    const pid_t pid = spawn(options.python, {options.python, script.string(), out.string()}, log);
+    waitpid(pid, &status, 0);
+    const int code = exit_code_of(status);
+    summary["plots"] = {{"script", script.string()}, {"exit_code", code},
+                        {"wall_seconds", seconds_since(plot_start)}};
+    if (code != cli::kExitOk) {
+      ok = false;
+      fmt::print("  figure script failed (exit {}): {}\n", code, last_line(log));
+    } else {
+      fmt::print("  figures in {}\n", (out / "figures").string());
+    }
+  }
+  summary["wall_seconds"] = seconds_since(start);
+  write_json_atomic(out / "study.json", summary);
+  fmt::print("study {} in {:.1f} s; summary in {}\n", ok ? "finished" : "FAILED",
+             seconds_since(start), (out / "study.json").string());
+  return ok ? cli::kExitOk : cli::kExitFailure;
+}

@@ -1,0 +1,32 @@
+#pragma once
+// `ehlsim study`: the pressure-spike study of the paper with one command
+// (apps/Study.cpp), and what the subcommands of ehlsim share.
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitBadInput = 2;
+
+/// "ehlsim: error: <message>" as one line on stderr.
+void print_error(std::string_view message);
+
+}  // namespace cli
+
+struct StudyOptions {
+  int grid = 257;
+  std::string out_dir = "study";
+  int jobs = 2;
+  std::vector<std::string> overrides;
+  bool no_plots = false;
+  std::string python = "/usr/bin/python3";
+  std::string plot_script;  ///< "" = scripts/plot_study.py of the source tree
+};
+
+CLI::App* add_study_command(CLI::App& app, StudyOptions& options);
+int run_study(const StudyOptions& options);

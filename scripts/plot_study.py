@@ -1,0 +1,322 @@
+#!/usr/bin/python3
+"""Figures of `ehlsim study` (Lubrecht & Venner 2022, figures 1-6) and the film and force
+histories of its cases, as PNG plus the CSV behind each, in STUDY_DIR/figures/.
+
+Run with Debian's Python (numpy, matplotlib):  /usr/bin/python3 scripts/plot_study.py STUDY_DIR
+
+Reads, per case STUDY_DIR/M<M>/: timeseries.csv, spike.csv (in-situ, every step),
+spike_snapshots.csv, spike_profiles.csv, axis_profiles.csv (`ehlsim spike`), run.json;
+and STUDY_DIR/dry.csv.  Also writes figures/summary.json with the measured figures quoted in
+docs/validation.md (lift-off per M, spike path, V_s ratio, R_s against the dry radius).
+"""
+import csv
+import json
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+CASES = [10, 20, 50, 100]          # the paper's M, with L = 10
+PROFILE_CASE = 100                 # figures 3, 4, 6: M = 100
+COMPARISON_CASE = 10               # figures 1, 2: M = 10 at T = 3.574
+COMPARISON_T = 3.574
+FIRST_PROFILE_T = 3.223            # figure 3 starts here (the paper's right-most spike)
+FIG3_EVERY_STEPS = 20              # the paper: "time increments of 20 time steps"
+FIG4_EVERY_STEPS = 2               # the paper: "only two time steps"
+FIG4_WINDOW = 0.13                 # the paper's figure 4 spans T = 4.242 ... 4.371
+DETAIL_HALF_WIDTH = 0.15           # figure 2: R_s +- this
+PAPER_MAX_DEFORMATION_T = 3.0      # the paper's "maximum deformation point T = 3" (figure 6)
+EARLY_WINDOW = 0.1                 # V_s near T = 3: mean over T = 3 +- this
+LATE_STEPS = 3                     # V_s just before lift-off: mean of the last 3 spike steps
+COMPARISON_TIMES = [3.0, 3.5, 3.75, 4.0]   # R_s against A_dry in summary.json
+DPI = 130
+
+
+def read_csv(path):
+    """Columns of a CSV file with a header, as float arrays (nan allowed)."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    return {name: np.array([float(r[k]) for r in data]) for k, name in enumerate(header)}
+
+
+def write_csv(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for r in rows:
+            w.writerow([f"{v:.10g}" if isinstance(v, float) else v for v in r])
+
+
+def group_by_time(columns, position):
+    """{T: (positions, values)} of a long-format profile file."""
+    T = columns["T"]
+    out = {}
+    for t in np.unique(T):
+        sel = T == t
+        value_name = [k for k in columns if k not in ("T", position)][0]
+        out[float(t)] = (columns[position][sel], columns[value_name][sel])
+    return out
+
+
+def load_case(study, M):
+    d = os.path.join(study, f"M{M}")
+    case = {"M": M, "dir": d}
+    case["run"] = json.load(open(os.path.join(d, "run.json")))
+    case["dT"] = case["run"]["dT"]
+    case["ts"] = read_csv(os.path.join(d, "timeseries.csv"))
+    case["spike"] = read_csv(os.path.join(d, "spike.csv"))
+    case["radial"] = group_by_time(read_csv(os.path.join(d, "spike_profiles.csv")), "R")
+    case["axis"] = group_by_time(read_csv(os.path.join(d, "axis_profiles.csv")), "X")
+    case["snapshots"] = read_csv(os.path.join(d, "spike_snapshots.csv"))
+    res = case["run"]["results"]
+    case["T_lift_off"] = res["T_lift_off"] if res["T_lift_off"] is not None else float("nan")
+    ts = case["ts"]
+    case["T_max_deformation"] = float(ts["T"][np.argmin(ts["Delta"])])
+    return case
+
+
+def step_of(T, dT):
+    return int(round(T / dT))
+
+
+def snapshot_at_or_after(case, T):
+    times = sorted(t for t in case["radial"] if t >= T - 1e-9)
+    return times[0] if times else None
+
+
+def pressurized_times(case):
+    """Snapshot times with pressure left (the lift-off snapshot has none)."""
+    return sorted(t for t, (_, p) in case["radial"].items() if np.nanmax(p) > 0)
+
+
+def fig1_fig2(case, out):
+    T = snapshot_at_or_after(case, COMPARISON_T)
+    if T is None:
+        print(f"figures 1-2: no snapshot of M = {case['M']} at T >= {COMPARISON_T}")
+        return {}
+    R, P_R = case["radial"][T]
+    X, P_X = case["axis"][T]
+    snaps = case["snapshots"]
+    k = int(np.argmin(np.abs(snaps["T"] - T)))
+    R_s, X_s = float(snaps["R_s"][k]), float(snaps["X_s"][k])
+    rows = [("P_X", float(x), float(p)) for x, p in zip(X, P_X)] + \
+           [("P_R_filtered", float(r), float(p)) for r, p in zip(R, P_R)]
+    for name, xlim in (("fig1", None), ("fig2", (R_s - DETAIL_HALF_WIDTH, R_s + DETAIL_HALF_WIDTH))):
+        fig, ax = plt.subplots(figsize=(6.4, 4.2))
+        ax.plot(X, P_X, "x", ms=4, color="k", label="P(X), Y = 0")
+        ax.plot(R, P_R, "-", color="C0", lw=1.4, label="filtered P(R)")
+        if math.isfinite(R_s):
+            ax.axvline(R_s, color="C3", lw=0.8, ls="--", label=f"R_s = {R_s:.4f}")
+        if math.isfinite(X_s):
+            ax.axvline(X_s, color="0.5", lw=0.8, ls=":", label=f"X_s = {X_s:.4f} (grid point)")
+        ax.set_xlabel("X, R")
+        ax.set_ylabel("P")
+        ax.set_title(f"M = {case['M']}, L = 10, T = {T:.4f}" + ("" if xlim is None else ", detail"))
+        if xlim is None:
+            ax.set_xlim(0, 1.5)
+            sel_rows = rows
+        else:
+            ax.set_xlim(*xlim)
+            inside = (R >= xlim[0]) & (R <= xlim[1])
+            if inside.any():
+                lo, hi = np.nanmin(P_R[inside]), np.nanmax(P_R[inside])
+                ax.set_ylim(lo - 0.1 * (hi - lo + 1e-9), hi + 0.1 * (hi - lo + 1e-9))
+            sel_rows = [r for r in rows if xlim[0] <= r[1] <= xlim[1]]
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, f"{name}.png"), dpi=DPI)
+        plt.close(fig)
+        write_csv(os.path.join(out, f"{name}.csv"), ["curve", "position", "P"], sel_rows)
+    return {"T": T, "R_s": R_s, "X_s": X_s}
+
+
+def profile_figure(case, times, name, title, out, xlim=None):
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    cmap = plt.get_cmap("viridis")
+    rows = []
+    for k, t in enumerate(times):
+        R, P = case["radial"][t]
+        ax.plot(R, P, lw=1.0, color=cmap(k / max(1, len(times) - 1)), label=f"T = {t:.3f}")
+        rows += [(t, float(r), float(p)) for r, p in zip(R, P)]
+    ax.set_xlabel("R")
+    ax.set_ylabel("filtered P(R)")
+    ax.set_title(title)
+    ax.set_xlim(*(xlim or (0, 1.2)))
+    if len(times) <= 14:
+        ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, f"{name}.png"), dpi=DPI)
+    plt.close(fig)
+    write_csv(os.path.join(out, f"{name}.csv"), ["T", "R", "P_filtered"], rows)
+
+
+def fig3_fig4(case, out):
+    dT = case["dT"]
+    live = pressurized_times(case)
+    start = snapshot_at_or_after(case, FIRST_PROFILE_T)
+    if start is None or not live:
+        print("figures 3-4: no snapshots of M = 100 after T = 3.223")
+        return {}
+    s0 = step_of(start, dT)
+    fig3 = [t for t in live if t >= start and (step_of(t, dT) - s0) % FIG3_EVERY_STEPS == 0]
+    if live[-1] not in fig3:
+        fig3.append(live[-1])  # the last profile before lift-off, as the paper's 4.365
+    profile_figure(case, fig3, "fig3", f"M = {case['M']}, L = 10: P(R) every {FIG3_EVERY_STEPS} steps "
+                   f"from T = {start:.3f} to lift-off", out)
+    last = live[-1]
+    s_last = step_of(last, dT)
+    fig4 = [t for t in live if t >= last - FIG4_WINDOW - 1e-9 and (s_last - step_of(t, dT)) % FIG4_EVERY_STEPS == 0]
+    profile_figure(case, fig4, "fig4", f"M = {case['M']}, L = 10: the last profiles before lift-off, "
+                   f"every {FIG4_EVERY_STEPS} steps", out, xlim=(0, 0.6))
+    return {"fig3_times": fig3, "fig4_times": fig4}
+
+
+def rebound_rows(case):
+    """spike.csv rows from the maximum deformation to lift-off."""
+    s = case["spike"]
+    return s["T"] >= case["T_max_deformation"]
+
+
+def fig5(cases, dry, out):
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    rows = []
+    for case in cases:
+        s = case["spike"]
+        sel = rebound_rows(case)
+        ax.plot(s["T"][sel], s["R_s"][sel], lw=1.2, label=f"M = {case['M']}")
+        rows += [(case["M"], float(t), float(r), float(x), float(a))
+                 for t, r, x, a in zip(s["T"][sel], s["R_s"][sel], s["X_s"][sel], s["A_dry"][sel])]
+    ax.plot(dry["T"], dry["A_dry"], "k--", lw=1.0, label="dry Hertz A(T)")
+    ax.set_xlabel("T")
+    ax.set_ylabel("spike position R_s")
+    ax.set_xlim(2.0, 4.5)
+    ax.set_ylim(0, 1.1)
+    ax.set_title("Spike position, L = 10 (dry contact: same start, no shift)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig5.png"), dpi=DPI)
+    plt.close(fig)
+    write_csv(os.path.join(out, "fig5.csv"), ["M", "T", "R_s", "X_s", "A_dry"], rows)
+    write_csv(os.path.join(out, "fig5_dry.csv"), ["T", "A_dry"],
+              [(float(t), float(a)) for t, a in zip(dry["T"], dry["A_dry"])])
+
+
+def fig6(case, out):
+    s = case["spike"]
+    sel = rebound_rows(case)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.plot(s["T"][sel], s["V_s"][sel], "-o", ms=2.5, lw=1.0)
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.set_xlabel("T")
+    ax.set_ylabel("V_s = dR_s/dT")
+    ax.set_title(f"Spike velocity, M = {case['M']}, L = 10 (finite differences, no filtering)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "fig6.png"), dpi=DPI)
+    plt.close(fig)
+    write_csv(os.path.join(out, "fig6.csv"), ["T", "R_s", "V_s"],
+              [(float(t), float(r), float(v)) for t, r, v in zip(s["T"][sel], s["R_s"][sel], s["V_s"][sel])])
+
+
+def histories(cases, dry, out):
+    fig, axes = plt.subplots(3, 1, figsize=(6.4, 8.0), sharex=True)
+    rows = []
+    for case in cases:
+        ts = case["ts"]
+        label = f"M = {case['M']}"
+        axes[0].plot(ts["T"], ts["h_center"], lw=1.0, label=label)
+        axes[1].plot(ts["T"], ts["h_min"], lw=1.0, label=label)
+        axes[2].plot(ts["T"], ts["force"], lw=1.0, label=label)
+        rows += [(case["M"], float(t), float(hc), float(hm), float(f), float(d))
+                 for t, hc, hm, f, d in zip(ts["T"], ts["h_center"], ts["h_min"], ts["force"], ts["Delta"])]
+    # Dry Hertz force (2 pi / 3) A^3 in the same unit as the film force Int Int P.
+    axes[2].plot(dry["T"], 2.0 * math.pi / 3.0 * dry["A_dry"] ** 3, "k--", lw=1.0, label="dry Hertz")
+    axes[0].set_ylabel("H at the centre")
+    axes[1].set_ylabel("minimum H")
+    axes[2].set_ylabel("force Int Int P dX dY")
+    axes[2].set_xlabel("T")
+    for ax in axes:
+        ax.legend(fontsize=7)
+    axes[0].set_yscale("log")
+    axes[1].set_yscale("log")
+    fig.suptitle("Film thickness and force, L = 10")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "histories.png"), dpi=DPI)
+    plt.close(fig)
+    write_csv(os.path.join(out, "histories.csv"), ["M", "T", "h_center", "h_min", "force", "Delta"], rows)
+
+
+def mean_finite(values):
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(np.mean(v)) if v.size else float("nan")
+
+
+def summary(cases, dry):
+    out = {"cases": []}
+    for case in cases:
+        s = case["spike"]
+        T, R, V, A = s["T"], s["R_s"], s["V_s"], s["A_dry"]
+        sel = rebound_rows(case) & np.isfinite(R)
+        entry = {"M": case["M"], "T_lift_off": case["T_lift_off"],
+                 "rebound_speed": case["run"]["results"]["rebound_speed"],
+                 "T_max_deformation": case["T_max_deformation"],
+                 "steps": case["run"]["results"]["steps"],
+                 "unconverged_steps": case["run"]["results"]["unconverged_steps"]}
+        if sel.any():
+            first, last = np.flatnonzero(sel)[0], np.flatnonzero(sel)[-1]
+            entry["spike_first"] = {"T": float(T[first]), "R_s": float(R[first])}
+            entry["spike_last"] = {"T": float(T[last]), "R_s": float(R[last])}
+            early = sel & (np.abs(T - PAPER_MAX_DEFORMATION_T) <= EARLY_WINDOW + 1e-9)
+            late_idx = np.flatnonzero(sel & np.isfinite(V))[-LATE_STEPS:]
+            v_early = mean_finite(V[early])
+            v_late = mean_finite(V[late_idx])
+            entry["V_s_near_T3"] = v_early
+            entry["V_s_before_lift_off"] = v_late
+            entry["V_s_before_lift_off_T"] = [float(t) for t in T[late_idx]]
+            entry["V_s_ratio"] = v_late / v_early if v_early else float("nan")
+            entry["R_s_vs_A_dry"] = []
+            for t in COMPARISON_TIMES:
+                k = int(np.argmin(np.abs(T - t)))
+                entry["R_s_vs_A_dry"].append({"T": float(T[k]), "R_s": float(R[k]), "X_s": float(s["X_s"][k]),
+                                              "A_dry": float(A[k]),
+                                              "ratio": float(R[k] / A[k]) if A[k] > 0 else float("nan")})
+            # Inward motion: the fraction of rebound steps where R_s does not grow.
+            r = R[sel]
+            entry["inward_fraction"] = float(np.mean(np.diff(r) <= 0)) if r.size > 1 else float("nan")
+        out["cases"].append(entry)
+    return out
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit("usage: /usr/bin/python3 scripts/plot_study.py STUDY_DIR")
+    study = sys.argv[1]
+    out = os.path.join(study, "figures")
+    os.makedirs(out, exist_ok=True)
+    cases = [load_case(study, M) for M in CASES if os.path.exists(os.path.join(study, f"M{M}", "run.json"))]
+    if not cases:
+        sys.exit(f"no finished cases in {study}")
+    by_M = {c["M"]: c for c in cases}
+    dry = read_csv(os.path.join(study, "dry.csv"))
+    result = {}
+    if COMPARISON_CASE in by_M:
+        result["fig1"] = fig1_fig2(by_M[COMPARISON_CASE], out)
+    if PROFILE_CASE in by_M:
+        result.update(fig3_fig4(by_M[PROFILE_CASE], out))
+        fig6(by_M[PROFILE_CASE], out)
+    fig5(cases, dry, out)
+    histories(cases, dry, out)
+    result.update(summary(cases, dry))
+    with open(os.path.join(out, "summary.json"), "w") as f:
+        json.dump(result, f, indent=2, default=float)
+    print(json.dumps(result, indent=2, default=float))
+
+
+if __name__ == "__main__":
+    main()

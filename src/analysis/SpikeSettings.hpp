@@ -1,0 +1,34 @@
+#pragma once
+// Settings of the pressure-spike analysis (section 3 of Lubrecht & Venner 2022;
+// docs/model.md, "Spike analysis").  Values only: defaults, ranges and
+// documentation of the `spike.*` keys live once, in the parameter registry
+// (io/Parameters).
+namespace ehlsim {
+
+enum class SpikeFilter { Butterworth, Gaussian, None };
+
+struct SpikeSettings {
+  /// Moving average over this many consecutive points of the R-sorted P(R):
+  /// the paper's "moving 20 point average".
+  int smoothing_points = 20;
+  /// The zero-phase low-pass filter applied after the moving average.
+  SpikeFilter filter = SpikeFilter::Butterworth;
+  /// Cut-off wavelength of the filter in mesh sizes h: the wavelength passed
+  /// with half its amplitude.  Two meshes is the shortest wave the grid can
+  /// represent (its Nyquist wavelength); 3 leaves the spike (3-5 meshes wide)
+  /// and removes the direction-dependent discretization noise (docs/model.md).
+  double cutoff_meshes = 3.0;
+  /// Spacing of the uniform R grid the filter works on, in mesh sizes.
+  double resample_meshes = 0.125;
+  /// A local maximum counts as the spike only if it is at least this fraction
+  /// of the largest filtered pressure (excludes ripples of the low-pressure
+  /// squeeze film outside the contact)...
+  double min_height = 0.25;
+  /// ... and rises at least this fraction of the largest filtered pressure
+  /// above the lowest point between it and the next higher point inward (or
+  /// the centre): its inward prominence (excludes wiggles on the flank of the
+  /// central pressure dome).
+  double min_prominence = 0.01;
+};
+
+}  // namespace ehlsim

@@ -1,0 +1,75 @@
+#include "io/FieldReader.hpp"
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <fmt/format.h>
+#include <netcdf.h>
+
+namespace ehlsim {
+
+namespace {
+/// Relative tolerance on the uniform spacing of the stored coordinate.
+constexpr double kCoordinateTolerance = 1e-9;
+}  // namespace
+
+void FieldReader::check(int status, const char* what) const {
+  if (status != NC_NOERR) {
+    throw std::runtime_error(
+        fmt::format("cannot read '{}': {}: {}", path_.string(), what, nc_strerror(status)));
+  }
+}
+
+FieldReader::FieldReader(const std::filesystem::path& path) : path_(path) {
+  check(nc_open(path.c_str(), NC_NOWRITE, &ncid_), "nc_open");
+  try {
+    int dim_time = -1;
+    int dim_x = -1;
+    check(nc_inq_dimid(ncid_, "time", &dim_time), "dimension time");
+    check(nc_inq_dimid(ncid_, "x", &dim_x), "dimension x");
+    std::size_t snapshots = 0;
+    std::size_t n = 0;
+    check(nc_inq_dimlen(ncid_, dim_time, &snapshots), "dimension time");
+    check(nc_inq_dimlen(ncid_, dim_x, &n), "dimension x");
+    if (n < 3) throw std::runtime_error(fmt::format("'{}': fewer than 3 points", path.string()));
+    int var_X = -1;
+    int var_T = -1;
+    check(nc_inq_varid(ncid_, "X", &var_X), "variable X");
+    check(nc_inq_varid(ncid_, "T", &var_T), "variable T");
+    check(nc_inq_varid(ncid_, "P", &var_P_), "variable P");
+    std::vector<double> X(n);
+    check(nc_get_var_double(ncid_, var_X, X.data()), "variable X");
+    const double half_width = -X.front();
+    grid_ = Grid2D(static_cast<int>(n), half_width);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (std::abs(X[i] - grid_.x(static_cast<int>(i))) > kCoordinateTolerance * half_width) {
+        throw std::runtime_error(fmt::format(
+            "'{}': X is not the uniform symmetric grid ehlsim writes", path.string()));
+      }
+    }
+    times_.resize(snapshots);
+    if (snapshots > 0) check(nc_get_var_double(ncid_, var_T, times_.data()), "variable T");
+  } catch (...) {
+    nc_close(ncid_);
+    ncid_ = -1;
+    throw;
+  }
+}
+
+FieldReader::~FieldReader() {
+  if (ncid_ >= 0) nc_close(ncid_);
+}
+
+Field FieldReader::pressure(std::size_t index) const {
+  if (index >= times_.size()) throw std::out_of_range("FieldReader::pressure: no such snapshot");
+  Field P(grid_);
+  const auto n = static_cast<std::size_t>(grid_.n);
+  const std::array<std::size_t, 3> start = {index, 0, 0};
+  const std::array<std::size_t, 3> count = {1, n, n};
+  check(nc_get_vara_double(ncid_, var_P_, start.data(), count.data(), P.data()), "variable P");
+  return P;
+}
+
+}  // namespace ehlsim

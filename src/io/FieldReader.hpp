@@ -1,0 +1,36 @@
+#pragma once
+// Reads fields.nc as FieldWriter writes it: the grid (from the coordinate X),
+// the snapshot times T and the pressure P of each snapshot.
+#include <cstddef>
+#include <filesystem>
+#include <vector>
+
+#include "grid/Grid.hpp"
+
+namespace ehlsim {
+
+class FieldReader {
+ public:
+  /// Opens the file and reads X, Y and T.  Throws std::runtime_error naming
+  /// the file and the NetCDF message, or what is missing or inconsistent.
+  explicit FieldReader(const std::filesystem::path& path);
+  ~FieldReader();
+  FieldReader(const FieldReader&) = delete;
+  FieldReader& operator=(const FieldReader&) = delete;
+
+  [[nodiscard]] const Grid2D& grid() const { return grid_; }
+  [[nodiscard]] const std::vector<double>& times() const { return times_; }
+  /// P of snapshot `index` (0 <= index < times().size()).
+  [[nodiscard]] Field pressure(std::size_t index) const;
+
+ private:
+  void check(int status, const char* what) const;
+
+  std::filesystem::path path_;
+  int ncid_ = -1;
+  int var_P_ = -1;
+  Grid2D grid_;
+  std::vector<double> times_;
+};
+
+}  // namespace ehlsim

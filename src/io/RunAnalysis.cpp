@@ -1,0 +1,113 @@
+#include "io/RunAnalysis.hpp"
+
+#include <fstream>
+#include <optional>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "analysis/SpikeAnalysis.hpp"
+#include "io/FieldReader.hpp"
+#include "io/Parameters.hpp"
+#include "io/RunOutput.hpp"
+#include "io/SpikeWriter.hpp"
+
+namespace ehlsim {
+
+namespace {
+
+constexpr std::string_view kSpikeSection = "spike.";
+
+nlohmann::json read_run_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) {
+    throw ConfigError(fmt::format("cannot read '{}': not a complete ehlsim run directory (run.json "
+                                  "is written last, when the run has finished)",
+                                  path.string()));
+  }
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw ConfigError(fmt::format("cannot read '{}': {}", path.string(), e.what()));
+  }
+}
+
+/// The run's spike settings as overrides, then the caller's (spike.* only).
+std::vector<std::string> spike_overrides(const nlohmann::json& run,
+                                         const std::vector<std::string>& extra) {
+  std::vector<std::string> out;
+  const nlohmann::json* settings = nullptr;
+  if (run.contains("parameters") && run["parameters"].contains("spike")) {
+    settings = &run["parameters"]["spike"];
+  }
+  if (settings) {
+    for (auto it = settings->begin(); it != settings->end(); ++it) {
+      out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
+    }
+  }
+  for (const std::string& assignment : extra) {
+    if (assignment.rfind(kSpikeSection, 0) != 0) {
+      throw ConfigError(fmt::format("--set '{}': only spike.* keys apply to an analysis of a "
+                                    "finished run",
+                                    assignment));
+    }
+    out.push_back(assignment);
+  }
+  return out;
+}
+
+double run_parameter(const nlohmann::json& run, const char* section, const char* key,
+                     const std::filesystem::path& path) {
+  try {
+    return run.at("parameters").at(section).at(key).get<double>();
+  } catch (const nlohmann::json::exception&) {
+    throw ConfigError(fmt::format("cannot read '{}': no number parameters.{}.{}", path.string(),
+                                  section, key));
+  }
+}
+
+}  // namespace
+
+RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
+                                        const std::filesystem::path& out_dir,
+                                        const std::vector<std::string>& overrides) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(run_dir, ec)) {
+    throw ConfigError(fmt::format("run directory '{}' does not exist or is not a directory",
+                                  run_dir.string()));
+  }
+  const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
+  const nlohmann::json run = read_run_json(run_file);
+  const SpikeSettings settings = load_config(std::nullopt, spike_overrides(run, overrides)).spike;
+  const DryContactRadius dry(run_parameter(run, "time", "Delta0", run_file),
+                             run_parameter(run, "time", "V0", run_file));
+
+  std::optional<FieldReader> fields;
+  try {
+    fields.emplace(run_dir / RunOutput::kFieldsFile);
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(e.what());
+  }
+
+  std::filesystem::create_directories(out_dir);
+  RunAnalysisReport report;
+  report.files = {out_dir / kSpikeSnapshotsFile, out_dir / kSpikeProfilesFile,
+                  out_dir / kAxisProfilesFile};
+  SpikeSeriesWriter series(report.files[0]);
+  ProfileWriter radial(report.files[1], "T,R,P_filtered");
+  ProfileWriter axis(report.files[2], "T,X,P");
+  for (std::size_t k = 0; k < fields->times().size(); ++k) {
+    const double T = fields->times()[k];
+    const SpikeAnalysis analysis = analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
+    series.append(spike_sample(T, analysis, dry));
+    radial.append(T, analysis.filtered);
+    axis.append(T, analysis.axis);
+    ++report.snapshots;
+  }
+  series.commit();
+  radial.commit();
+  axis.commit();
+  return report;
+}
+
+}  // namespace ehlsim

@@ -1,0 +1,31 @@
+#pragma once
+// `ehlsim spike RUN_DIR`: the spike analysis of every snapshot of a finished
+// run (fields.nc, with Delta0, V0 and the spike.* settings from run.json),
+// written as spike_snapshots.csv, spike_profiles.csv and axis_profiles.csv
+// (io/SpikeWriter.hpp).
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace ehlsim {
+
+struct RunAnalysisReport {
+  std::size_t snapshots = 0;
+  std::vector<std::filesystem::path> files;
+};
+
+inline constexpr const char* kSpikeSnapshotsFile = "spike_snapshots.csv";
+inline constexpr const char* kSpikeProfilesFile = "spike_profiles.csv";
+inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
+
+/// Analyses `run_dir` into `out_dir` (created if missing).  `overrides` are
+/// "spike.key=value" assignments applied after the run's own spike settings.
+/// Throws ConfigError (a bad input: no such directory, no complete run in it,
+/// an unreadable fields.nc or run.json, a key outside [spike], a bad value)
+/// or std::runtime_error (the output cannot be written).
+RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
+                                        const std::filesystem::path& out_dir,
+                                        const std::vector<std::string>& overrides);
+
+}  // namespace ehlsim
