@@ -176,16 +176,20 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
     const double damping = std::pow(kRetryDamping, attempt);
     for (auto& level : levels) level->smoother().set_damping(damping);
     bool converged = false;
+    bool diverged = false;
     try {
       converged = iterate_time_step(step, ball);
     } catch (const std::runtime_error&) {
+      // A diverged attempt is never kept; when no attempt was even stalled
+      // the run cannot go on.
       if (attempt == kMaxRetries && best.size() == 0) throw;
+      diverged = true;
     }
     if (converged) {
       if (attempt > 0) ++retried_steps;
       return fine.force(solver->solution());
     }
-    if (std::isfinite(last_residual) && last_residual < best_residual) {
+    if (!diverged && last_residual < best_residual) {
       best = solver->solution();
       best_residual = last_residual;
       best_delta = fine.delta();
