@@ -11,6 +11,7 @@
 
 #include "analysis/SpikeSettings.hpp"
 #include "reynolds/FaceMean.hpp"
+#include "reynolds/LineRelaxation.hpp"
 
 #include "rheology/Models.hpp"
 
@@ -81,14 +82,7 @@ struct ImpactConfig {
   int post_sweeps = 2;
   int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side
   DeformationMethod deformation = DeformationMethod::Fft;
-  // Relaxation: under-relaxation factors after Venner & Lubrecht (2000), about
-  // 0.4 and 0.2 (model.md).  The switch is 10 times their 0.3: with the
-  // deformation updated once per colour of the zebra sweep, Gauss-Seidel points
-  // where the elastic term is comparable to the flow term amplify smooth errors
-  // (seen as divergence at the dimple formation on 257^2); docs/model.md.
-  double switch_ratio = 3.0;        ///< Gauss-Seidel / distributive Jacobi switch
-  double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
+  reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
   FaceMean face_mean = FaceMean::Arithmetic;
 
   // [output]

@@ -95,10 +95,7 @@ void ImpactProblem::Impl::setup_hierarchy() {
   op.use_fft = cfg.deformation == DeformationMethod::Fft;
   op.waviness = {cfg.waviness_amplitude, cfg.waviness_wavelength, cfg.waviness_angle_deg};
   op.face_mean = cfg.face_mean;
-  reynolds::RelaxationSettings relax;
-  relax.switch_ratio = cfg.switch_ratio;
-  relax.omega_gauss_seidel = cfg.omega_gauss_seidel;
-  relax.omega_jacobi = cfg.omega_jacobi;
+  const reynolds::RelaxationSettings& relax = cfg.relaxation;
 
   Grid2D g = grid;
   std::vector<multigrid::FasLevel*> raw;

@@ -295,12 +295,13 @@ std::vector<ParameterSpec> build_registry() {
                       "points per side of the coarsest multigrid level (<= grid.points)"));
   r.push_back(choice("solver.deformation", kFft, {std::string(kFft), std::string(kDirect)},
                      "deformation integrals: fft (zero-padded FFT convolution) or direct"));
-  r.push_back(real("solver.switch_ratio", kDefaults.switch_ratio, "", above(0), none, "",
+  const reynolds::RelaxationSettings& relax = kDefaults.relaxation;
+  r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), none, "",
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
                    "times the elastic-squeeze coefficient, else by distributive Jacobi"));
-  r.push_back(real("solver.omega_gauss_seidel", kDefaults.omega_gauss_seidel, "", above(0),
+  r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0),
                    at_most(1), "", "under-relaxation of the Gauss-Seidel line changes"));
-  r.push_back(real("solver.omega_jacobi", kDefaults.omega_jacobi, "", above(0), at_most(1), "",
+  r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
   r.push_back(choice("solver.face_mean", kArithmetic,
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
@@ -910,9 +911,9 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.pre_sweeps = in.integer("solver.pre_sweeps");
   c.post_sweeps = in.integer("solver.post_sweeps");
   c.coarsest_points = in.integer("solver.coarsest_points");
-  c.switch_ratio = in.real("solver.switch_ratio");
-  c.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
-  c.omega_jacobi = in.real("solver.omega_jacobi");
+  c.relaxation.switch_ratio = in.real("solver.switch_ratio");
+  c.relaxation.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
+  c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                       : DeformationMethod::Fft;
@@ -1045,9 +1046,9 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"post_sweeps", c.post_sweeps},
                  {"coarsest_points", c.coarsest_points},
                  {"deformation", deformation_method_text(c.deformation)},
-                 {"switch_ratio", c.switch_ratio},
-                 {"omega_gauss_seidel", c.omega_gauss_seidel},
-                 {"omega_jacobi", c.omega_jacobi},
+                 {"switch_ratio", c.relaxation.switch_ratio},
+                 {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
+                 {"omega_jacobi", c.relaxation.omega_jacobi},
                  {"face_mean", face_mean_text(c.face_mean)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},

@@ -20,12 +20,17 @@
 
 namespace ehlsim::reynolds {
 
+/// The relaxation parameters; these defaults are the run's defaults
+/// (ImpactConfig holds one of these).  Under-relaxation after Venner &
+/// Lubrecht (2000), about 0.4 and 0.2 (model.md).
 struct RelaxationSettings {
   /// Switch: a point is relaxed by Gauss-Seidel where
   /// sum of face xi / h^2 >= switch_ratio * (b0/dT) rho K(0,0), else distributively.
-  /// Venner & Lubrecht use about 0.3 for their analogous ratio; 3 is needed
-  /// here because the deformation is updated only once per colour (see
-  /// ImpactConfig.hpp and docs/model.md).  The run's values come from ImpactConfig.
+  /// Venner & Lubrecht use about 0.3 for their analogous ratio; here it is 10
+  /// times that: with the deformation updated once per colour of the zebra
+  /// sweep, Gauss-Seidel points where the elastic term is comparable to the
+  /// flow term amplify smooth errors (seen as divergence at the dimple
+  /// formation on 257^2 with 0.3; docs/model.md).
   double switch_ratio = 3.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
   double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
