@@ -26,14 +26,18 @@ PROFILE_CASE = 100                 # figures 3, 4, 6: M = 100
 COMPARISON_CASE = 10               # figures 1, 2: M = 10 at T = 3.574
 COMPARISON_T = 3.574
 FIRST_PROFILE_T = 3.223            # figure 3 starts here (the paper's right-most spike)
-FIG3_EVERY_STEPS = 20              # the paper: "time increments of 20 time steps"
-FIG4_EVERY_STEPS = 2               # the paper: "only two time steps"
+PAPER_DT = 3.0 / 1024.0           # the paper's time step: dT = dX on 1025^2 over [-1.5, 1.5]
+FIG3_INTERVAL = 20 * PAPER_DT      # the paper: "time increments of 20 time steps" (0.0586)
+FIG4_EVERY_STEPS = 2               # the paper: "only two time steps" (every snapshot here)
 FIG4_WINDOW = 0.13                 # the paper's figure 4 spans T = 4.242 ... 4.371
 DETAIL_HALF_WIDTH = 0.15           # figure 2: R_s +- this
 PAPER_MAX_DEFORMATION_T = 3.0      # the paper's "maximum deformation point T = 3" (figure 6)
 EARLY_WINDOW = 0.1                 # V_s near T = 3: mean over T = 3 +- this
 LATE_STEPS = 3                     # V_s just before lift-off: mean of the last 3 spike steps
 COMPARISON_TIMES = [3.0, 3.5, 3.75, 4.0]   # R_s against A_dry in summary.json
+# A step whose final residual exceeds this many times solver.tolerance did not converge in any
+# attempt; from the first such step on, a case is cut off (its fields can be meaningless).
+DIVERGED_RESIDUAL_FACTOR = 100.0
 DPI = 130
 
 
@@ -76,9 +80,29 @@ def load_case(study, M):
     case["snapshots"] = read_csv(os.path.join(d, "spike_snapshots.csv"))
     res = case["run"]["results"]
     case["T_lift_off"] = res["T_lift_off"] if res["T_lift_off"] is not None else float("nan")
+    truncate_at_divergence(case)
     ts = case["ts"]
     case["T_max_deformation"] = float(ts["T"][np.argmin(ts["Delta"])])
     return case
+
+
+def truncate_at_divergence(case):
+    """Drops every step from the first one the solver did not converge (residual far above
+    its tolerance, or non-finite values) on, and records its time in case["T_diverged"]."""
+    ts = case["ts"]
+    limit = DIVERGED_RESIDUAL_FACTOR * case["run"]["parameters"]["solver"]["tolerance"]
+    bad = ~np.isfinite(ts["residual"]) | (ts["residual"] > limit) | ~np.isfinite(ts["Delta"])
+    case["T_diverged"] = float(ts["T"][np.argmax(bad)]) if bad.any() else None
+    if case["T_diverged"] is None:
+        return
+    T_end = case["T_diverged"] - 1e-9
+    print(f"M = {case['M']}: the steps from T = {case['T_diverged']:.4f} on did not converge "
+          f"(residual above {limit:g}); they are left out")
+    for name in ("ts", "spike", "snapshots"):
+        keep = case[name]["T"] < T_end
+        case[name] = {k: v[keep] for k, v in case[name].items()}
+    for name in ("radial", "axis"):
+        case[name] = {t: v for t, v in case[name].items() if t < T_end}
 
 
 def step_of(T, dT):
@@ -163,11 +187,18 @@ def fig3_fig4(case, out):
     if start is None or not live:
         print("figures 3-4: no snapshots of M = 100 after T = 3.223")
         return {}
-    s0 = step_of(start, dT)
-    fig3 = [t for t in live if t >= start and (step_of(t, dT) - s0) % FIG3_EVERY_STEPS == 0]
+    # The paper's spacing in time, 20 of its steps; on a coarser grid that is
+    # fewer of ours: the snapshot nearest to each multiple of the interval.
+    fig3 = []
+    target = start
+    while target <= live[-1] + 1e-9:
+        nearest = min((t for t in live if t >= start), key=lambda t: abs(t - target))
+        if nearest not in fig3:
+            fig3.append(nearest)
+        target += FIG3_INTERVAL
     if live[-1] not in fig3:
         fig3.append(live[-1])  # the last profile before lift-off, as the paper's 4.365
-    profile_figure(case, fig3, "fig3", f"M = {case['M']}, L = 10: P(R) every {FIG3_EVERY_STEPS} steps "
+    profile_figure(case, fig3, "fig3", f"M = {case['M']}, L = 10: P(R) every dT = {FIG3_INTERVAL:.4f} "
                    f"from T = {start:.3f} to lift-off", out)
     last = live[-1]
     s_last = step_of(last, dT)
@@ -263,7 +294,7 @@ def summary(cases, dry):
         s = case["spike"]
         T, R, V, A = s["T"], s["R_s"], s["V_s"], s["A_dry"]
         sel = rebound_rows(case) & np.isfinite(R)
-        entry = {"M": case["M"], "T_lift_off": case["T_lift_off"],
+        entry = {"M": case["M"], "T_lift_off": case["T_lift_off"], "T_diverged": case["T_diverged"],
                  "rebound_speed": case["run"]["results"]["rebound_speed"],
                  "T_max_deformation": case["T_max_deformation"],
                  "steps": case["run"]["results"]["steps"],
@@ -273,6 +304,8 @@ def summary(cases, dry):
             entry["spike_first"] = {"T": float(T[first]), "R_s": float(R[first])}
             entry["spike_last"] = {"T": float(T[last]), "R_s": float(R[last])}
             early = sel & (np.abs(T - PAPER_MAX_DEFORMATION_T) <= EARLY_WINDOW + 1e-9)
+            own = sel & (T <= case["T_max_deformation"] + 2 * EARLY_WINDOW + 1e-9)
+            entry["V_s_after_max_deformation"] = mean_finite(V[own])
             late_idx = np.flatnonzero(sel & np.isfinite(V))[-LATE_STEPS:]
             v_early = mean_finite(V[early])
             v_late = mean_finite(V[late_idx])
