@@ -131,7 +131,9 @@ def fig1_fig2(case, out):
     R_s, X_s = float(snaps["R_s"][k]), float(snaps["X_s"][k])
     rows = [("P_X", float(x), float(p)) for x, p in zip(X, P_X)] + \
            [("P_R_filtered", float(r), float(p)) for r, p in zip(R, P_R)]
-    for name, xlim in (("fig1", None), ("fig2", (R_s - DETAIL_HALF_WIDTH, R_s + DETAIL_HALF_WIDTH))):
+    # The detail is centred on the spike, or on the pressure maximum when there is none.
+    centre = R_s if math.isfinite(R_s) else float(R[np.nanargmax(P_R)])
+    for name, xlim in (("fig1", None), ("fig2", (centre - DETAIL_HALF_WIDTH, centre + DETAIL_HALF_WIDTH))):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
         ax.plot(X, P_X, "x", ms=4, color="k", label="P(X), Y = 0")
         ax.plot(R, P_R, "-", color="C0", lw=1.4, label="filtered P(R)")

@@ -217,6 +217,44 @@ TEST(Cli, SpikeFilesOfARun) {
   }
 }
 
+TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
+  TempDir dir;
+  const fs::path out = dir / "study";
+  expect_bad_input(ehlsim("study --grid 100 --out " + quote(out.string())),
+                   "grid.points = 100: must be 2^k + 1 between 9 and 4097 (--set)");
+  expect_bad_input(ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
+                   "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+/// The whole study on a 33^2 grid (about 2 s): four child runs, their spike
+/// files, the dry reference, and the figures when Debian's Python has matplotlib.
+TEST(Cli, TinyStudy) {
+  TempDir dir;
+  const fs::path out = dir / "study";
+  const bool with_plots =
+      std::system("/usr/bin/python3 -c 'import numpy, matplotlib' > /dev/null 2>&1") == 0;
+  const Result r = ehlsim("study --grid 33 --out " + quote(out.string()) +
+                          (with_plots ? "" : " --no-plots"));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const std::string summary = read_file(out / "study.json");
+  for (const char* M : {"M10", "M20", "M50", "M100"}) {
+    SCOPED_TRACE(M);
+    for (const char* file : {"timeseries.csv", "spike.csv", "fields.nc", "run.json",
+                             "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv"}) {
+      EXPECT_TRUE(fs::exists(out / M / file)) << file;
+    }
+    EXPECT_NE(summary.find(std::string("\"dir\": \"") + M + "\""), std::string::npos);
+  }
+  EXPECT_EQ(summary.find("\"exit_code\": 1"), std::string::npos) << summary;
+  EXPECT_EQ(read_file(out / "dry.csv").rfind("T,A_dry\n", 0), 0u);
+  if (!with_plots) GTEST_SKIP() << "/usr/bin/python3 without numpy/matplotlib: figures not tried";
+  for (const char* figure : {"fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "histories"}) {
+    EXPECT_TRUE(fs::exists(out / "figures" / (std::string(figure) + ".png"))) << figure;
+    EXPECT_TRUE(fs::exists(out / "figures" / (std::string(figure) + ".csv"))) << figure;
+  }
+}
+
 TEST(Cli, RunEchoesTheParameters) {
   TempDir dir;
   const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
