@@ -59,7 +59,7 @@ TEST(SpikeAnalysis, BumpOnAHertzDomeIsFoundWithinAQuarterMesh) {
   const Grid2D grid(kPoints, kHalfWidth);
   const double h = grid.h();
   for (const SpikeFilter filter : {SpikeFilter::Butterworth, SpikeFilter::Gaussian}) {
-    for (const double R0 : {0.3, 0.55, 0.77}) {
+    for (const double R0 : {0.12, 0.3, 0.55, 0.77}) {
       SyntheticSpike spike;
       spike.R0 = R0;
       SpikeSettings settings;
@@ -97,8 +97,12 @@ TEST(SpikeAnalysis, SpikeMovingAtAKnownSpeed) {
     R.push_back(analyze_spike(grid, sample(grid, spike).span(), SpikeSettings{}).radial->position);
   }
   const std::vector<double> V = finite_difference_rate(T, R);
+  // Three-point differences inside: within 2 %.  The two-point differences of
+  // the first and last sample divide the same position errors by dT instead
+  // of 2 dT: within twice that.
   for (std::size_t k = 0; k < V.size(); ++k) {
-    EXPECT_NEAR(V[k], speed, 0.02 * std::abs(speed)) << "T = " << T[k];
+    const bool end = k == 0 || k + 1 == V.size();
+    EXPECT_NEAR(V[k], speed, (end ? 0.04 : 0.02) * std::abs(speed)) << "T = " << T[k];
   }
 }
 
@@ -136,6 +140,29 @@ TEST(SpikeAnalysis, RadialProfileOfAnAxisymmetricField) {
     EXPECT_LT(worst_centre, 2e-3) << static_cast<int>(filter);
     EXPECT_LT(worst, 5e-4) << static_cast<int>(filter);
   }
+}
+
+TEST(SpikeAnalysis, MovingAverageWindow) {
+  // Positions k^2 / 100: sparse at the end, dense at the start.  Values = positions,
+  // so each averaged value equals its averaged position (a linear profile stays exact)
+  // and the window of a sample can be read back from its averaged position.
+  Profile p;
+  for (int k = 0; k < 200; ++k) {
+    p.position.push_back(k * k / 100.0);
+    p.value.push_back(k * k / 100.0);
+  }
+  const double max_width = 5.0;
+  const Profile a = moving_average(p, 20, max_width);
+  ASSERT_EQ(a.size(), p.size());
+  EXPECT_EQ(a.position.front(), 0.0);  // the first sample alone: the window stays centred
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_DOUBLE_EQ(a.value[k], a.position[k]);
+  // Where 20 samples span less than max_width the window is the full 20 samples
+  // (k = 10: samples 1..20, span 3.99); where they are sparse it is narrowed
+  // (k = 150: spacing 3, so samples 149 and 150, span 2.99).
+  double full = 0.0;
+  for (int k = 1; k <= 20; ++k) full += k * k / 100.0;
+  EXPECT_NEAR(a.position[10], full / 20.0, 1e-12);
+  EXPECT_NEAR(a.position[150], 0.5 * (p.position[149] + p.position[150]), 1e-12);
 }
 
 TEST(SpikeAnalysis, FiltersPassHalfTheAmplitudeAtTheCutOff) {

@@ -143,8 +143,9 @@ Profile axis_profile(const Grid2D& grid, std::span<const double> P) {
   return out;
 }
 
-Profile moving_average(const Profile& profile, int points) {
+Profile moving_average(const Profile& profile, int points, double max_width) {
   if (points < 1) throw std::invalid_argument("moving_average: points must be >= 1");
+  if (!(max_width > 0.0)) throw std::invalid_argument("moving_average: max_width must be > 0");
   const std::size_t n = profile.size();
   const auto m = static_cast<std::size_t>(points);
   // Prefix sums: the mean of [lo, hi] in O(1).
@@ -157,16 +158,27 @@ Profile moving_average(const Profile& profile, int points) {
   Profile out;
   out.position.resize(n);
   out.value.resize(n);
-  const std::size_t before = (m - 1) / 2;  // window [k - before, k - before + m - 1]
+  const std::size_t before_full = (m - 1) / 2;  // window [k - before, k + after]
+  const std::size_t after_full = m - 1 - before_full;
   for (std::size_t k = 0; k < n; ++k) {
     // Near the ends the window shrinks symmetrically about k: at R = 0 the
     // points are sparse and a one-sided window would shift the centre value.
-    const std::size_t reach = std::min({before, k, n - 1 - k});
-    const std::size_t lo = reach < before ? k - reach : k - before;
-    const std::size_t hi = reach < before ? k + reach : std::min(n - 1, k - before + m - 1);
-    const auto count = static_cast<double>(hi - lo + 1);
-    out.position[k] = (sum_position[hi + 1] - sum_position[lo]) / count;
-    out.value[k] = (sum_value[hi + 1] - sum_value[lo]) / count;
+    std::size_t before = before_full;
+    std::size_t after = after_full;
+    if (k < before_full || n - 1 - k < after_full) before = after = std::min(k, n - 1 - k);
+    // Where the points are sparse in R (near the centre) the window is also
+    // narrowed to max_width, so that it does not smear what the grid resolves.
+    while ((before > 0 || after > 0) &&
+           profile.position[k + after] - profile.position[k - before] > max_width) {
+      if (after >= before) {
+        --after;
+      } else {
+        --before;
+      }
+    }
+    const auto count = static_cast<double>(before + after + 1);
+    out.position[k] = (sum_position[k + after + 1] - sum_position[k - before]) / count;
+    out.value[k] = (sum_value[k + after + 1] - sum_value[k - before]) / count;
   }
   return out;
 }
@@ -245,7 +257,8 @@ SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,
                             const SpikeSettings& settings) {
   const double h = grid.h();
   SpikeAnalysis out;
-  const Profile averaged = moving_average(quadrant_radial_profile(grid, P), settings.smoothing_points);
+  const Profile averaged = moving_average(quadrant_radial_profile(grid, P), settings.smoothing_points,
+                                          settings.max_window_meshes * h);
   out.filtered = resample_uniform(averaged, settings.resample_meshes * h);
   out.filtered.value = low_pass(out.filtered.value, settings.resample_meshes * h, settings.filter,
                                 settings.cutoff_meshes * h);

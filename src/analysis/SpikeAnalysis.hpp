@@ -37,8 +37,10 @@ struct Profile {
 /// Average of `points` consecutive samples around each sample, positions and
 /// values alike (averaging the positions too keeps a linear P(R) exact on
 /// unevenly spaced R).  Within points / 2 of either end the window shrinks to
-/// stay centred on its sample, so the first sample (R = 0) is kept as it is.
-[[nodiscard]] Profile moving_average(const Profile& profile, int points);
+/// stay centred on its sample, so the first sample (R = 0) is kept as it is;
+/// and it is narrowed (about its sample) until it spans at most `max_width`
+/// in position.
+[[nodiscard]] Profile moving_average(const Profile& profile, int points, double max_width);
 
 /// The profile by linear interpolation at 0, spacing, 2 spacing, ... up to its
 /// last position; constant before its first sample.

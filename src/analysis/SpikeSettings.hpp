@@ -11,6 +11,13 @@ struct SpikeSettings {
   /// Moving average over this many consecutive points of the R-sorted P(R):
   /// the paper's "moving 20 point average".
   int smoothing_points = 20;
+  /// ... but over at most this width in R, in mesh sizes.  Near the centre the
+  /// points are sparse (20 of them span 3.7 meshes at R = 0.04 on 257^2); a
+  /// moving average of width w passes the cut-off wavelength lc with the
+  /// factor sinc(pi w / lc), 0.95 for w = h/2 and lc = 3h, so the average
+  /// does not blur what the filter is meant to keep.  20 points span more
+  /// than h/2 only within R < 80 h / pi (25 meshes) of the centre.
+  double max_window_meshes = 0.5;
   /// The zero-phase low-pass filter applied after the moving average.
   SpikeFilter filter = SpikeFilter::Butterworth;
   /// Cut-off wavelength of the filter in mesh sizes h: the wavelength passed

@@ -175,6 +175,8 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
                    "the snapshots every output.snapshot_every steps begin at this time"));
   r.push_back(integer("spike.smoothing_points", kDefaultSpike.smoothing_points, at_least(1), none,
                       false, "moving average of the R-sorted P(R) over this many points (paper: 20)"));
+  r.push_back(real("spike.max_window_meshes", kDefaultSpike.max_window_meshes, "", above(0), none,
+                   "", "... spanning at most this many mesh sizes in R (acts near the centre)"));
   r.push_back(choice("spike.filter", spike_filter_text(kDefaultSpike.filter),
                      {std::string(kButterworth), std::string(kGaussian), std::string(kNoFilter)},
                      "zero-phase low-pass after the average: butterworth (2nd order, forward and "
@@ -932,6 +934,7 @@ void assemble_spike(const Inputs& in, ImpactConfig& c) {
   c.snapshot_start = in.real("output.snapshot_start");
   SpikeSettings& s = c.spike;
   s.smoothing_points = in.integer("spike.smoothing_points");
+  s.max_window_meshes = in.real("spike.max_window_meshes");
   s.filter = spike_filter_from_text(in.get<std::string>("spike.filter"));
   s.cutoff_meshes = in.real("spike.cutoff_meshes");
   s.resample_meshes = in.real("spike.resample_meshes");
@@ -1052,6 +1055,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"face_mean", face_mean_text(c.face_mean)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
+                {"max_window_meshes", c.spike.max_window_meshes},
                 {"filter", spike_filter_text(c.spike.filter)},
                 {"cutoff_meshes", c.spike.cutoff_meshes},
                 {"resample_meshes", c.spike.resample_meshes},
