@@ -66,8 +66,8 @@ constexpr double kFigureTimes[] = {3.223, 3.574};
 constexpr double kProfileCaseM = 100.0;
 constexpr int kProfileSnapshotEvery = 2;
 constexpr double kProfileSnapshotStart = 3.223;
-/// Exit code reported for a child killed by a signal.
-constexpr int kExitSignalled = 128;
+/// Exit code reported for a child killed by signal s: 128 + s, as the shells do.
+constexpr int kExitSignalBase = 128;
 /// The child process image: this very binary.
 constexpr const char* kSelf = "/proc/self/exe";
 
@@ -142,7 +142,10 @@ pid_t spawn(const std::string& program, std::vector<std::string> args, const fs:
   return pid;
 }
 
-int exit_code_of(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : kExitSignalled; }
+int exit_code_of(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return WIFSIGNALED(status) ? kExitSignalBase + WTERMSIG(status) : cli::kExitFailure;
+}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -171,7 +174,14 @@ void run_cases(std::vector<Case>& cases, int jobs) {
         args.push_back(o);
       }
       c.start = std::chrono::steady_clock::now();
-      c.pid = spawn(kSelf, args, c.log);
+      try {
+        c.pid = spawn(kSelf, args, c.log);
+      } catch (const std::runtime_error& e) {
+        // The cases already running are still waited for.
+        c.exit_code = cli::kExitFailure;
+        fmt::print("  FAILED   M = {:<4g}: {}\n", c.M, e.what());
+        continue;
+      }
       running[c.pid] = &c;
       fmt::print("  started  M = {:<4g} (pid {}, log {})\n", c.M, c.pid, c.log.string());
       std::fflush(stdout);
@@ -276,10 +286,15 @@ int run_study(const StudyOptions& options) {
   if (!options.no_plots) {
     const auto plot_start = std::chrono::steady_clock::now();
     const fs::path log = out / "logs" / "plot.log";
-    int status = 0;
-    const pid_t pid = spawn(options.python, {options.python, script.string(), out.string()}, log);
-    waitpid(pid, &status, 0);
-    const int code = exit_code_of(status);
+    int code = cli::kExitFailure;
+    try {
+      const pid_t pid = spawn(options.python, {options.python, script.string(), out.string()}, log);
+      int status = 0;
+      waitpid(pid, &status, 0);
+      code = exit_code_of(status);
+    } catch (const std::runtime_error& e) {
+      std::ofstream(log) << e.what() << '\n';  // reported below like a failed script
+    }
     summary["plots"] = {{"script", script.string()}, {"exit_code", code},
                         {"wall_seconds", seconds_since(plot_start)}};
     if (code != cli::kExitOk) {
