@@ -145,12 +145,16 @@ TEST(Cli, VersionAndHelp) {
   }
 }
 
+/// `ehlsim impact --quiet` on 33^2 into `run` with further options.
+Result tiny_run(const fs::path& run, const std::string& options) {
+  return ehlsim("impact --quiet --set grid.points=33 --set solver.coarsest_points=9 " + options +
+                " --out " + quote(run.string()));
+}
+
 TEST(Cli, TinyRun) {
   TempDir dir;
   const fs::path run = dir / "run";
-  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
-                          "--set body.elastic=false --set time.T_end=0.3 --quiet --out " +
-                          quote(run.string()));
+  const Result r = tiny_run(run, "--set body.elastic=false --set time.T_end=0.3");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out, "");  // --quiet: nothing but errors
   EXPECT_EQ(r.err, "");
@@ -198,9 +202,7 @@ TEST(Cli, SpikeOnABadRunDirectory) {
 TEST(Cli, SpikeFilesOfARun) {
   TempDir dir;
   const fs::path run = dir / "run";
-  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
-                          "--set time.T_end=0.4 --set output.snapshot_every=2 --quiet --out " +
-                          quote(run.string()));
+  const Result r = tiny_run(run, "--set time.T_end=0.4 --set output.snapshot_every=2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string spike = read_file(run / "spike.csv");
   EXPECT_EQ(spike.rfind("T,R_s,P_s,V_s,A_dry,X_s,P_xs\n", 0), 0u);

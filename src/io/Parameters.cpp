@@ -1,6 +1,7 @@
 #include "io/Parameters.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -159,14 +160,24 @@ std::string_view face_mean_text(FaceMean mean) {
 // [spike] and output.snapshot_start: the settings of the spike analysis
 // (analysis/SpikeSettings.hpp; docs/model.md, "Spike analysis").
 const SpikeSettings kDefaultSpike{};
-constexpr std::string_view kButterworth = "butterworth";
-constexpr std::string_view kGaussian = "gaussian";
-constexpr std::string_view kNoFilter = "none";
+constexpr std::array<std::pair<SpikeFilter, std::string_view>, 3> kSpikeFilterNames = {{
+    {SpikeFilter::Butterworth, "butterworth"},
+    {SpikeFilter::Gaussian, "gaussian"},
+    {SpikeFilter::None, "none"},
+}};
 
+/// The filter of a validated spike.filter string (the registry allows only these names).
 SpikeFilter spike_filter_from_text(std::string_view text) {
-  if (text == kGaussian) return SpikeFilter::Gaussian;
-  if (text == kNoFilter) return SpikeFilter::None;
-  return SpikeFilter::Butterworth;
+  for (const auto& [filter, name] : kSpikeFilterNames) {
+    if (name == text) return filter;
+  }
+  throw std::logic_error("spike.filter: unvalidated value '" + std::string(text) + "'");
+}
+
+std::vector<std::string> spike_filter_choices() {
+  std::vector<std::string> out;
+  for (const auto& entry : kSpikeFilterNames) out.emplace_back(entry.second);
+  return out;
 }
 
 void add_spike_parameters(std::vector<ParameterSpec>& r) {
@@ -178,7 +189,7 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("spike.max_window_meshes", kDefaultSpike.max_window_meshes, "", above(0), none,
                    "", "... spanning at most this many mesh sizes in R (acts near the centre)"));
   r.push_back(choice("spike.filter", spike_filter_text(kDefaultSpike.filter),
-                     {std::string(kButterworth), std::string(kGaussian), std::string(kNoFilter)},
+                     spike_filter_choices(),
                      "zero-phase low-pass after the average: butterworth (2nd order, forward and "
                      "back), gaussian (ISO 16610-21) or none"));
   r.push_back(real("spike.cutoff_meshes", kDefaultSpike.cutoff_meshes, "", above(0), none, "",
@@ -1003,12 +1014,10 @@ double effective_time_step(const ImpactConfig& config) {
 }
 
 std::string_view spike_filter_text(SpikeFilter filter) {
-  switch (filter) {
-    case SpikeFilter::Gaussian: return kGaussian;
-    case SpikeFilter::None: return kNoFilter;
-    case SpikeFilter::Butterworth: break;
+  for (const auto& [value, name] : kSpikeFilterNames) {
+    if (value == filter) return name;
   }
-  return kButterworth;
+  throw std::logic_error("spike_filter_text: unknown filter");
 }
 
 nlohmann::json effective_parameters_json(const ImpactConfig& c) {
