@@ -32,6 +32,7 @@
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/RunOutput.hpp"
+#include "io/SpikeWriter.hpp"
 #include "io/TimeSeriesWriter.hpp"
 #include "rheology/Lubricant.hpp"
 
@@ -323,7 +324,7 @@ TEST(RegistryErrors, UnknownKeysAndSections) {
   EXPECT_EQ(set_error({"grid.point=33"}),
             "unknown key 'grid.point' (known keys in [grid]: points, half_width) (--set)");
   const std::string sections =
-      "known sections: case, physical, lubricant, body, grid, time, surface, output, solver";
+      "known sections: case, physical, lubricant, body, grid, time, surface, output, solver, spike";
   EXPECT_EQ(set_error({"cases.M=3"}),
             "unknown key 'cases.M' (unknown section [cases]; " + sections + ") (--set)");
   EXPECT_EQ(set_error({"M=3"}), "unknown key 'M' (keys belong to a section: " +
@@ -804,6 +805,75 @@ TEST(RunOutput, WritesAllFilesOnFinish) {
 
   const std::string csv = read_file(run / "timeseries.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 11);
+}
+
+TEST(RunOutput, SnapshotStartDelaysThePeriodicSnapshotsOnly) {
+  TempDir dir;
+  const ImpactConfig config = load_config(
+      std::nullopt, {"grid.points=9", "solver.coarsest_points=5", "output.snapshot_every=2",
+                     "output.snapshot_start=0.55", "output.snapshot_times=[0.3]", "time.dT=0.1"});
+  const Grid2D grid(9, 1.5);
+  RunOutput output(dir.path(), config, false);
+  output.add_file("spike", "spike.csv");
+  output.on_start(grid);
+  for (int step = 1; step <= 9; ++step) {
+    StepRecord r = record(step, 0.1 * step);
+    if (step == 9) r.p_max = 0.0;  // lift-off: no pressure left; the solver flags the last step
+    output.on_step(r, Field(grid), Field(grid), step % 2 == 0 || step == 9);
+  }
+  output.on_finish(RunSummary{});
+  // Step 3 (snapshot_times), steps 6 and 8 (periodic from T = 0.55), step 9 (the last);
+  // not the periodic steps 2 and 4.
+  EXPECT_EQ(output.snapshots_written(), 4u);
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir / "run.json"));
+  EXPECT_EQ(j["files"]["spike"], "spike.csv");
+  EXPECT_EQ(j["parameters"]["output"]["snapshot_start"].get<double>(), 0.55);
+}
+
+// spike.csv is written with a lag of one step (V_s needs the next step): its
+// V_s column must be what the batch finite differences give for its R_s column.
+TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
+  TempDir dir;
+  const ImpactConfig config = load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
+  const Grid2D grid(65, 1.5);
+  const int steps = 7;
+  {
+    SpikeOutput spike(dir.path(), config);
+    spike.on_start(grid);
+    for (int step = 1; step <= steps; ++step) {
+      const double T = 0.05 * step;
+      const double R0 = 0.8 - 0.5 * T;  // a ring of pressure moving inward on a dome
+      Field P(grid);
+      for (int j = 0; j < grid.n; ++j) {
+        for (int i = 0; i < grid.n; ++i) {
+          const double R = std::hypot(grid.x(i), grid.y(j));
+          P(i, j) = std::max(0.0, 1.0 - R * R) + 0.5 * std::exp(-std::pow((R - R0) / 0.06, 2));
+        }
+      }
+      spike.on_step(record(step, T), P, Field(grid), false);
+    }
+    EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"spike.csv.part"});
+    spike.on_finish(RunSummary{});
+  }
+  EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"spike.csv"});
+  std::istringstream csv(read_file(dir / "spike.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, SpikeSeriesWriter::kHeader);
+  std::vector<double> T, R, V;
+  while (std::getline(csv, line)) {
+    double t = 0, r = 0, p = 0, v = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &t, &r, &p, &v), 4) << line;
+    T.push_back(t);
+    R.push_back(r);
+    V.push_back(v);
+  }
+  ASSERT_EQ(T.size(), static_cast<std::size_t>(steps));
+  const std::vector<double> expected = finite_difference_rate(T, R);
+  for (std::size_t k = 0; k < V.size(); ++k) {
+    EXPECT_NEAR(V[k], expected[k], 1e-6 * std::abs(expected[k])) << k;  // 10 digits in the file
+    EXPECT_LT(V[k], 0.0) << k;  // inward
+  }
 }
 
 TEST(RunOutput, FailedRunLeavesNoFiles) {
