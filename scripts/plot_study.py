@@ -133,7 +133,7 @@ def fig1_fig2(case, out):
            [("P_R_filtered", float(r), float(p)) for r, p in zip(R, P_R)]
     # The detail is centred on the spike, or on the pressure maximum when there is none.
     centre = R_s if math.isfinite(R_s) else float(R[np.nanargmax(P_R)])
-    for name, xlim in (("fig1", None), ("fig2", (centre - DETAIL_HALF_WIDTH, centre + DETAIL_HALF_WIDTH))):
+    for name, xlim in (("fig1", None), ("fig2", (max(0.0, centre - DETAIL_HALF_WIDTH), centre + DETAIL_HALF_WIDTH))):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
         ax.plot(X, P_X, "x", ms=4, color="k", label="P(X), Y = 0")
         ax.plot(R, P_R, "-", color="C0", lw=1.4, label="filtered P(R)")
@@ -149,9 +149,9 @@ def fig1_fig2(case, out):
             sel_rows = rows
         else:
             ax.set_xlim(*xlim)
-            inside = (R >= xlim[0]) & (R <= xlim[1])
-            if inside.any():
-                lo, hi = np.nanmin(P_R[inside]), np.nanmax(P_R[inside])
+            shown = np.concatenate([P_R[(R >= xlim[0]) & (R <= xlim[1])], P_X[(X >= xlim[0]) & (X <= xlim[1])]])
+            if shown.size:
+                lo, hi = np.nanmin(shown), np.nanmax(shown)
                 ax.set_ylim(lo - 0.1 * (hi - lo + 1e-9), hi + 0.1 * (hi - lo + 1e-9))
             sel_rows = [r for r in rows if xlim[0] <= r[1] <= xlim[1]]
         ax.legend(fontsize=8)
