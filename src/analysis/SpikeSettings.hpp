@@ -22,8 +22,9 @@ struct SpikeSettings {
   SpikeFilter filter = SpikeFilter::Butterworth;
   /// Cut-off wavelength of the filter in mesh sizes h: the wavelength passed
   /// with half its amplitude.  Two meshes is the shortest wave the grid can
-  /// represent (its Nyquist wavelength); 3 leaves the spike (3-5 meshes wide)
-  /// and removes the direction-dependent discretization noise (docs/model.md).
+  /// represent (its Nyquist wavelength); 3 keeps the position of the spike (2-4
+  /// meshes wide on 257^2) and removes the direction-dependent discretization
+  /// noise (docs/model.md, section 10).
   double cutoff_meshes = 3.0;
   /// Spacing of the uniform R grid the filter works on, in mesh sizes.
   double resample_meshes = 0.125;
