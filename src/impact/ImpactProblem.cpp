@@ -74,6 +74,7 @@ struct ImpactProblem::Impl {
   int unconverged_steps = 0;
   int retried_steps = 0;
   double last_residual = 0.0;
+  double start_residual = 0.0;  ///< residual of the step's initial approximation
 };
 
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
@@ -142,18 +143,26 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
     // step is not smooth in time, and extrapolating it can start the step far
     // worse than the last solution does; the start with the smaller residual
     // is taken.
+    // (Measured on 257^2: fewer stalled steps, and the saved retries pay for
+    // the extra residual evaluation.)
     Field& P = solver->solution();
     const Field last = P;
     for (std::size_t k = 0; k < P.size(); ++k)
       P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
-    const double extrapolated_residual = solver->residual_norm();
+    start_residual = solver->residual_norm();
     const Field extrapolated = P;
     P = last;
-    if (solver->residual_norm() > extrapolated_residual) P = extrapolated;
+    const double last_start_residual = solver->residual_norm();
+    if (last_start_residual < start_residual) {
+      start_residual = last_start_residual;
+    } else {
+      P = extrapolated;
+    }
     P_before = last;
   } else {
     // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
     P_before = solver->solution();
+    start_residual = solver->residual_norm();
   }
 
   // Cycles until the tolerance.  Should the iteration diverge or stall above
@@ -231,7 +240,7 @@ double ImpactProblem::Impl::solve_initial_pressure() {
 
 bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
   reynolds::ReynoldsOperator& fine = levels.front()->op();
-  const double initial_residual = solver->residual_norm();
+  const double initial_residual = start_residual;  // every attempt starts from the same state
   if (monitor) monitor(step, 0, initial_residual);
   for (int c = 1; c <= cfg.max_cycles; ++c) {
     solver->cycle();
