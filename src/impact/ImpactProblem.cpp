@@ -25,7 +25,8 @@ constexpr BdfCoefficients kBdf1{1.0, -1.0, 0.0};
 constexpr BdfCoefficients kBdf2{1.5, -2.0, 0.5};
 /// A step whose residual grows this far above its starting value has diverged.
 constexpr double kDivergenceFactor = 1e3;
-/// Retries of a diverged step, each with the under-relaxation scaled by kRetryDamping.
+/// Retries of a diverged or stalled step, each with the under-relaxation scaled
+/// by kRetryDamping once more.
 constexpr int kMaxRetries = 2;
 constexpr double kRetryDamping = 0.5;
 
