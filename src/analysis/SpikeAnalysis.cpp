@@ -287,15 +287,26 @@ double three_point_derivative(double t0, double t1, double t2, double r0, double
   return (-b / (a * (a + b))) * r0 + ((b - a) / (a * b)) * r1 + (a / (b * (a + b))) * r2;
 }
 
+double rate_at(const std::optional<TimedValue>& before, TimedValue at,
+               const std::optional<TimedValue>& after) {
+  if (before && after)
+    return three_point_derivative(before->t, at.t, after->t, before->r, at.r, after->r);
+  if (before) return (at.r - before->r) / (at.t - before->t);
+  if (after) return (after->r - at.r) / (after->t - at.t);
+  return kNaN;
+}
+
 std::vector<double> finite_difference_rate(std::span<const double> t, std::span<const double> r) {
   if (t.size() != r.size()) throw std::invalid_argument("finite_difference_rate: sizes differ");
   const std::size_t n = t.size();
   std::vector<double> rate(n, kNaN);
   if (n < 2) return rate;
-  rate.front() = (r[1] - r[0]) / (t[1] - t[0]);
-  rate.back() = (r[n - 1] - r[n - 2]) / (t[n - 1] - t[n - 2]);
-  for (std::size_t k = 1; k + 1 < n; ++k) {
-    rate[k] = three_point_derivative(t[k - 1], t[k], t[k + 1], r[k - 1], r[k], r[k + 1]);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::optional<TimedValue> before =
+        k > 0 ? std::optional<TimedValue>({t[k - 1], r[k - 1]}) : std::nullopt;
+    const std::optional<TimedValue> after =
+        k + 1 < n ? std::optional<TimedValue>({t[k + 1], r[k + 1]}) : std::nullopt;
+    rate[k] = rate_at(before, {t[k], r[k]}, after);
   }
   return rate;
 }

@@ -87,8 +87,22 @@ struct SpikeAnalysis {
 [[nodiscard]] double three_point_derivative(double t0, double t1, double t2, double r0, double r1,
                                             double r2);
 
-/// d r/d t at every sample: three-point differences inside, two-point at the
-/// ends (NaN where a needed value is NaN, or for fewer than two samples).
+/// One sample of r(t).
+struct TimedValue {
+  double t = 0.0;
+  double r = 0.0;
+};
+
+/// d r/d t at `at` from its neighbours: the three-point difference with both,
+/// the two-point one with only one of them (an end of the series), NaN with
+/// neither.  The one rule of the batch (finite_difference_rate) and the
+/// streaming (spike.csv) spike speed.
+[[nodiscard]] double rate_at(const std::optional<TimedValue>& before, TimedValue at,
+                             const std::optional<TimedValue>& after);
+
+/// d r/d t at every sample by rate_at: three-point differences inside,
+/// two-point at the ends (NaN where a needed value is NaN, or for fewer than
+/// two samples).
 [[nodiscard]] std::vector<double> finite_difference_rate(std::span<const double> t,
                                                          std::span<const double> r);
 

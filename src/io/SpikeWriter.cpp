@@ -1,7 +1,6 @@
 #include "io/SpikeWriter.hpp"
 
-#include <cmath>
-#include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -12,13 +11,16 @@ void SpikeSeriesWriter::write(const SpikeSample& s, double V_s) {
                           s.P_s, V_s, s.A_dry, s.X_s, s.P_xs));
 }
 
+namespace {
+std::optional<TimedValue> radius_at(const std::optional<SpikeSample>& s) {
+  if (!s) return std::nullopt;
+  return TimedValue{s->T, s->R_s};
+}
+}  // namespace
+
 void SpikeSeriesWriter::append(const SpikeSample& next) {
   if (current_) {
-    const SpikeSample& c = *current_;
-    const double V_s = previous_ ? three_point_derivative(previous_->T, c.T, next.T, previous_->R_s,
-                                                          c.R_s, next.R_s)
-                                 : (next.R_s - c.R_s) / (next.T - c.T);
-    write(c, V_s);
+    write(*current_, rate_at(radius_at(previous_), {current_->T, current_->R_s}, radius_at(next)));
     previous_ = current_;
   }
   current_ = next;
@@ -26,10 +28,7 @@ void SpikeSeriesWriter::append(const SpikeSample& next) {
 
 void SpikeSeriesWriter::commit() {
   if (current_) {
-    const SpikeSample& c = *current_;
-    const double V_s = previous_ ? (c.R_s - previous_->R_s) / (c.T - previous_->T)
-                                 : std::numeric_limits<double>::quiet_NaN();
-    write(c, V_s);
+    write(*current_, rate_at(radius_at(previous_), {current_->T, current_->R_s}, std::nullopt));
     current_.reset();
   }
   csv_.commit();
