@@ -193,7 +193,8 @@ TEST_P(FftVsDirect, RandomPressure) {
 
 // Powers of two plus one, and n = 21 (m = 40) and 23 (2n-2 = 44 = 4 * 11 is not
 // 7-smooth: m = 48 > 2n - 1, the padding is then strictly larger).
-INSTANTIATE_TEST_SUITE_P(Sizes, FftVsDirect, ::testing::Values(17, 21, 23, 33, 65));
+// 129 and up: the transforms run in batches on the OpenMP threads.
+INSTANTIATE_TEST_SUITE_P(Sizes, FftVsDirect, ::testing::Values(17, 21, 23, 33, 65, 129));
 
 TEST(Deformation, PointLoadGivesKernelIncludingLargestOffset) {
   // A unit load at a corner: W(i, j) = K(i, j) exactly.  W at the opposite

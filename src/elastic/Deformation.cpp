@@ -1,6 +1,7 @@
 #include "elastic/Deformation.hpp"
 
 #include <fftw3.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cstring>
@@ -111,43 +112,72 @@ int padded_period(int lower) {
   }
 }
 
+/// Grids with fewer points per side than this transform on one thread: the
+/// cost of sharing out the work exceeds the transform (measured: 65^2 takes
+/// about 0.1 ms).
+constexpr int kMinPointsForThreads = 129;
+
+/// The half-open range [begin, end) of part `c` of `parts` equal shares of `count`.
+struct Share {
+  int begin, end;
+};
+Share share(int count, int parts, int c) {
+  return {count * c / parts, count * (c + 1) / parts};
+}
+
 }  // namespace
 
 struct FftDeformation::Impl {
   int n;        // grid points per side
   int m;        // padded period per side
   int mc;       // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
+  int parts;    // the transforms are cut into this many independent batches, one per thread
   FftwBuffer<double> real;           // n rows of m: P in, W out
   FftwBuffer<fftw_complex> spectrum; // m rows of mc
   FftwBuffer<double> kernel_hat;     // mc rows of mc: real kernel transform / m^2, ky <= m/2
-  Plan rows_forward, cols_forward, cols_backward, rows_backward;
+  // One plan per batch: rows of the real array, columns of the spectrum.  A
+  // 2-D transform is a batch of 1-D transforms along each axis, so the
+  // batches of one axis are independent and run on the threads of the
+  // calling OpenMP team (FFTW's own threads cost more than they save at these
+  // sizes: docs/performance.md).
+  std::vector<Plan> rows_forward, cols_forward, cols_backward, rows_backward;
 
   Impl(const KernelTable& K, FftPlanning planning)
       : n(K.n()),
         m(padded_period(2 * (K.n() - 1))),
         mc(m / 2 + 1),
+        parts(K.n() >= kMinPointsForThreads ? std::max(1, omp_get_max_threads()) : 1),
         real(fftw_buffer<double>(static_cast<std::size_t>(n) * m)),
         spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * mc)),
         kernel_hat(fftw_buffer<double>(static_cast<std::size_t>(mc) * mc)) {
     const unsigned flags = planning == FftPlanning::Measure ? FFTW_MEASURE : FFTW_ESTIMATE;
-    fftw_complex* s = spectrum.get();
-    double* r = real.get();
-    // Rows: n real transforms of length m, row stride m in, mc out.
-    rows_forward = make_plan([&] {
-      return fftw_plan_many_dft_r2c(1, &m, n, r, nullptr, 1, m, s, nullptr, 1, mc, flags);
-    });
-    rows_backward = make_plan([&] {
-      return fftw_plan_many_dft_c2r(1, &m, n, s, nullptr, 1, mc, r, nullptr, 1, m, flags);
-    });
-    // Columns: mc complex transforms of length m, in place, element stride mc.
-    cols_forward = make_plan([&] {
-      return fftw_plan_many_dft(1, &m, mc, s, nullptr, mc, 1, s, nullptr, mc, 1, FFTW_FORWARD,
-                                flags);
-    });
-    cols_backward = make_plan([&] {
-      return fftw_plan_many_dft(1, &m, mc, s, nullptr, mc, 1, s, nullptr, mc, 1, FFTW_BACKWARD,
-                                flags);
-    });
+    for (int c = 0; c < parts; ++c) {
+      // Rows [r.begin, r.end): real transforms of length m, row stride m in, mc out.
+      const Share r = share(n, parts, c);
+      double* row_in = real.get() + static_cast<std::size_t>(r.begin) * m;
+      fftw_complex* row_out = spectrum.get() + static_cast<std::size_t>(r.begin) * mc;
+      const int rows = r.end - r.begin;
+      rows_forward.push_back(make_plan([&] {
+        return fftw_plan_many_dft_r2c(1, &m, rows, row_in, nullptr, 1, m, row_out, nullptr, 1, mc,
+                                      flags);
+      }));
+      rows_backward.push_back(make_plan([&] {
+        return fftw_plan_many_dft_c2r(1, &m, rows, row_out, nullptr, 1, mc, row_in, nullptr, 1, m,
+                                      flags);
+      }));
+      // Columns [k.begin, k.end): complex transforms of length m, in place, element stride mc.
+      const Share k = share(mc, parts, c);
+      fftw_complex* col = spectrum.get() + k.begin;
+      const int cols = k.end - k.begin;
+      cols_forward.push_back(make_plan([&] {
+        return fftw_plan_many_dft(1, &m, cols, col, nullptr, mc, 1, col, nullptr, mc, 1,
+                                  FFTW_FORWARD, flags);
+      }));
+      cols_backward.push_back(make_plan([&] {
+        return fftw_plan_many_dft(1, &m, cols, col, nullptr, mc, 1, col, nullptr, mc, 1,
+                                  FFTW_BACKWARD, flags);
+      }));
+    }
 
     // Kernel transform.  The periodic kernel is the even extension of
     // K(a, b), a, b = 0..m/2 (zero for a or b >= n), so its DFT is real and
@@ -171,30 +201,44 @@ struct FftDeformation::Impl {
     const auto umc = static_cast<std::size_t>(mc);
     double* r = real.get();
     fftw_complex* s = spectrum.get();
-
-    // P into the first n columns of the n data rows; zero padding after.
-    for (std::size_t j = 0; j < un; ++j) {
-      std::copy_n(p + j * un, un, r + j * um);
-      std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
-    }
-    fftw_execute(rows_forward.get());
-    // The padding rows of the spectrum (overwritten by the previous inverse).
-    std::memset(static_cast<void*>(s + un * umc), 0, sizeof(fftw_complex) * (um - un) * umc);
-    fftw_execute(cols_forward.get());
-
     const double* kh = kernel_hat.get();
-    for (std::size_t ky = 0; ky < um; ++ky) {
-      const double* k = kh + std::min(ky, um - ky) * umc;  // even in ky
-      fftw_complex* row = s + ky * umc;
-      for (std::size_t kx = 0; kx < umc; ++kx) {
-        row[kx][0] *= k[kx];
-        row[kx][1] *= k[kx];
-      }
-    }
 
-    fftw_execute(cols_backward.get());
-    fftw_execute(rows_backward.get());
-    for (std::size_t j = 0; j < un; ++j) std::copy_n(r + j * um, un, w + j * un);
+    // Each stage ends in the barrier of its worksharing loop: a stage reads
+    // what the one before wrote across all batches.
+#pragma omp parallel num_threads(parts) if (parts > 1)
+    {
+      // P into the first n columns of the n data rows; zero padding after.
+#pragma omp for schedule(static)
+      for (std::size_t j = 0; j < un; ++j) {
+        std::copy_n(p + j * un, un, r + j * um);
+        std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
+      }
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) fftw_execute(rows_forward[c].get());
+      // The padding rows of the spectrum (overwritten by the previous inverse).
+#pragma omp for schedule(static)
+      for (std::size_t ky = un; ky < um; ++ky)
+        std::memset(static_cast<void*>(s + ky * umc), 0, sizeof(fftw_complex) * umc);
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) fftw_execute(cols_forward[c].get());
+
+#pragma omp for schedule(static)
+      for (std::size_t ky = 0; ky < um; ++ky) {
+        const double* k = kh + std::min(ky, um - ky) * umc;  // even in ky
+        fftw_complex* row = s + ky * umc;
+        for (std::size_t kx = 0; kx < umc; ++kx) {
+          row[kx][0] *= k[kx];
+          row[kx][1] *= k[kx];
+        }
+      }
+
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) fftw_execute(cols_backward[c].get());
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) fftw_execute(rows_backward[c].get());
+#pragma omp for schedule(static)
+      for (std::size_t j = 0; j < un; ++j) std::copy_n(r + j * um, un, w + j * un);
+    }
   }
 };
 
