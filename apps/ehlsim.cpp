@@ -1,6 +1,6 @@
 // ehlsim: the command line.
 //
-//   ehlsim impact [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--quiet]
+//   ehlsim impact [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--restart CHECKPOINT] [--quiet]
 //   ehlsim impact --help        (lists every parameter with default and range)
 //   ehlsim spike RUN_DIR [--out DIR] [--set spike.KEY=VALUE]... [--quiet]
 //   ehlsim study [--grid N] [--out DIR] [--jobs J] [--set KEY=VALUE]... [--no-plots]
@@ -29,6 +29,7 @@
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
+#include "io/Checkpoint.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
@@ -53,6 +54,7 @@ struct ImpactOptions {
   std::string config_file;  ///< "" = the built-in default case
   std::string out_dir = "run";
   std::vector<std::string> overrides;
+  std::string restart_file;  ///< "" = start at Delta0
   bool quiet = false;
 };
 
@@ -69,6 +71,10 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false)
       ->take_all();
+  cmd->add_option("--restart", options.restart_file,
+                  "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
+                  "solver.*, output.*, spike.* and time.T_end may differ")
+      ->type_name("CHECKPOINT");
   cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
   cmd->footer("\n" + describe_parameters());
   return cmd;
@@ -142,19 +148,47 @@ int run_impact(const ImpactOptions& options) {
     print_error(e.what());
     return kExitBadInput;
   }
-  if (!options.quiet) print_case(config, options.out_dir);
+  const nlohmann::json parameters = effective_parameters_json(config);
+  std::optional<Checkpoint> checkpoint;
+  if (!options.restart_file.empty()) {
+    try {
+      checkpoint = read_checkpoint(options.restart_file);
+    } catch (const std::runtime_error& e) {
+      print_error(fmt::format("--restart: {}", e.what()));
+      return kExitBadInput;
+    }
+    check_restart_compatible(checkpoint->parameters, parameters, options.restart_file);
+  }
+  if (!options.quiet) {
+    print_case(config, options.out_dir);
+    if (checkpoint)
+      fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
+                 checkpoint->state.step, checkpoint->state.ball.T);
+  }
 
-  const nlohmann::json invocation = {
+  nlohmann::json invocation = {
       {"config_file", options.config_file.empty() ? nlohmann::json(nullptr)
                                                   : nlohmann::json(options.config_file)},
       {"overrides", options.overrides},
       {"out", options.out_dir}};
+  if (checkpoint)
+    invocation["restart"] = {{"checkpoint", options.restart_file},
+                             {"step", checkpoint->state.step},
+                             {"T", checkpoint->state.ball.T}};
   // spike.csv first: run.json, written last by RunOutput, marks a complete run.
   SpikeOutput spike(options.out_dir, config);
   RunOutput output(options.out_dir, config, !options.quiet, invocation);
   output.add_file("spike", SpikeOutput::kFile);
   ObserverChain observers({&spike, &output});
   ImpactProblem problem(config);
+  if (checkpoint) problem.restart_from(std::move(checkpoint->state));
+  if (config.checkpoint_every > 0) {
+    const std::filesystem::path path = std::filesystem::path(options.out_dir) / kCheckpointFile;
+    output.add_file("checkpoint", kCheckpointFile);
+    problem.set_state_sink(config.checkpoint_every, [path, &parameters](const ImpactState& state) {
+      write_checkpoint(path, state, parameters);
+    });
+  }
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
   if (!options.quiet) print_summary(summary, output);

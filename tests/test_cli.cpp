@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -166,6 +168,43 @@ TEST(Cli, TinyRun) {
   for (const auto& entry : fs::directory_iterator(run)) {
     EXPECT_NE(entry.path().extension(), ".part") << entry.path();
   }
+}
+
+TEST(Cli, RestartFromACheckpoint) {
+  TempDir dir;
+  const fs::path first = dir / "first";
+  const fs::path second = dir / "second";
+  Result r = tiny_run(first, "--set body.elastic=false --set time.T_end=0.5 "
+                             "--set output.checkpoint_every=2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const fs::path checkpoint = first / "checkpoint.nc";
+  ASSERT_TRUE(fs::exists(checkpoint));
+  // The steps after the checkpoint, with a changed solver setting and end time.
+  r = tiny_run(second, "--set body.elastic=false --set time.T_end=0.6 --set solver.max_cycles=30 "
+                       "--restart " + quote(checkpoint.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json run = nlohmann::json::parse(read_file(second / "run.json"));
+  const int step = run.at("invocation").at("restart").at("step").get<int>();
+  EXPECT_EQ(step % 2, 0);
+  const std::string csv = read_file(second / "timeseries.csv");
+  const std::string first_row = csv.substr(csv.find('\n') + 1);
+  EXPECT_GT(std::stod(first_row), run.at("invocation").at("restart").at("T").get<double>());
+
+  // Another case, or a file that is no checkpoint: exit 2 with the key or the file.
+  expect_bad_input(tiny_run(dir / "third", "--set body.elastic=true --restart " +
+                                               quote(checkpoint.string())),
+                   "body.elastic = true, but checkpoint '" + checkpoint.string() +
+                       "' was written with false (a restart continues the same case: only "
+                       "solver.*, output.*, spike.* and time.T_end may change, solver.face_mean "
+                       "excepted)");
+  const fs::path not_a_checkpoint = second / "timeseries.csv";
+  r = tiny_run(dir / "fourth", "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--restart: cannot read checkpoint '" + not_a_checkpoint.string()),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "third"));
+  EXPECT_FALSE(fs::exists(dir / "fourth"));
 }
 
 TEST(Cli, BadSpikeKeys) {

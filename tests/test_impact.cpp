@@ -911,6 +911,54 @@ TEST(ImpactGridConvergence, SecondOrderInSpaceAndTime) {
 // the same deformation up to round-off (~1e-15 relative); through the whole
 // nonlinear solver the time series must agree to ~1e-9 (the iterations take the
 // same path; round-off is all that differs).  33^2 through dry contact (T = 1.5).
+TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
+  // A restart from the state after step k must give the steps after k of the
+  // uninterrupted run: the BDF2 history, the extrapolated start, the force
+  // extrapolation and the running summary all come from the state.  Contact
+  // steps (T > 1) on 65^2, in one process, so FFTW uses the same plans and
+  // the comparison can be to rounding.
+  ImpactConfig cfg = moes_config(65);
+  cfg.T_end = 3.0;
+  constexpr int kEvery = 25;
+  std::vector<ImpactState> states;
+  RunResult full;
+  {
+    ImpactProblem problem(cfg);
+    problem.set_state_sink(kEvery, [&](const ImpactState& s) { states.push_back(s); });
+    Recorder recorder(full);
+    full.summary = problem.run(recorder);
+  }
+  ASSERT_GE(states.size(), 2u);
+  const ImpactState& state = states[1];  // after step 50, T = 2.34: in contact
+  ASSERT_EQ(state.step, 2 * kEvery);
+  ASSERT_GT(state.ball.T, 1.0);
+  RunResult resumed;
+  {
+    ImpactProblem problem(cfg);
+    problem.restart_from(state);
+    Recorder recorder(resumed);
+    resumed.summary = problem.run(recorder);
+  }
+  ASSERT_EQ(resumed.records.size() + state.step, full.records.size());
+  ASSERT_EQ(resumed.records.front().step, state.step + 1);
+  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
+    const StepRecord& a = full.records[state.step + k];
+    const StepRecord& b = resumed.records[k];
+    EXPECT_EQ(a.cycles, b.cycles) << "step " << b.step;
+    EXPECT_NEAR(a.Delta, b.Delta, 1e-12) << "step " << b.step;
+    EXPECT_NEAR(a.force, b.force, 1e-12) << "step " << b.step;
+    EXPECT_NEAR(a.p_max, b.p_max, 1e-12) << "step " << b.step;
+  }
+  EXPECT_NEAR(resumed.summary.impulse, full.summary.impulse, 1e-12);
+  EXPECT_EQ(resumed.summary.max_force, full.summary.max_force);  // reached before the restart
+  EXPECT_EQ(resumed.summary.steps, full.summary.steps);
+
+  ImpactState wrong = state;
+  wrong.P = Field(Grid2D(33, cfg.half_width));
+  ImpactProblem problem(cfg);
+  EXPECT_THROW(problem.restart_from(wrong), std::invalid_argument);
+}
+
 TEST(ImpactDeformation, FftAndDirectGiveTheSameImpact) {
   ImpactConfig cfg = moes_config(33);
   cfg.T_end = 1.5;

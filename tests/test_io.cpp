@@ -28,6 +28,7 @@
 #include "impact/ImpactConfig.hpp"
 #include "impact/Scaling.hpp"
 #include "io/AtomicFile.hpp"
+#include "io/Checkpoint.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
@@ -684,6 +685,111 @@ TEST(Writers, NetcdfErrorsNameTheFile) {
     const std::string message = e.what();
     EXPECT_NE(message.find("fields.nc.part"), std::string::npos) << message;
     EXPECT_NE(message.find("nc_create"), std::string::npos) << message;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Checkpoints
+// ---------------------------------------------------------------------------
+
+TEST(Checkpoint, RoundTripIsExact) {
+  TempDir dir;
+  const Grid2D grid(17, 1.5);
+  ImpactState s;
+  s.step = 42;
+  s.ball = {1.234567890123, -0.3141592653589793, 0.27182818284590, 1.6180339887};
+  s.force = 0.5772156649;
+  s.force_before = 0.5772;
+  s.had_pressure = true;
+  s.summary.steps = 42;
+  s.summary.max_force = 2.1;
+  s.summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();  // no lift-off yet
+  s.summary.impulse = 1.0 / 3.0;
+  s.summary.unconverged_steps = 3;
+  s.summary.retried_steps = 5;
+  double phase = 0.0;  // a different pattern in each field
+  for (Field* f : {&s.P, &s.P_before, &s.rhoH, &s.rhoH_before}) {
+    *f = Field(grid);
+    phase += 1.0;
+    double x = phase;
+    for (std::size_t k = 0; k < f->size(); ++k, x += 0.37) (*f)[k] = std::sin(x) / 3.0;
+  }
+  s.P_before[5] = 1e-300;  // every bit must survive
+  const nlohmann::json parameters = effective_parameters_json(load_config(std::nullopt, {}));
+  const fs::path path = dir / "checkpoint.nc";
+  write_checkpoint(path, s, parameters);
+  EXPECT_FALSE(fs::exists(path.string() + PartialFile::kSuffix));
+
+  const Checkpoint c = read_checkpoint(path);
+  EXPECT_EQ(c.parameters, parameters);
+  const ImpactState& r = c.state;
+  EXPECT_EQ(r.step, 42);
+  EXPECT_EQ(r.ball.T, s.ball.T);
+  EXPECT_EQ(r.ball.Delta, s.ball.Delta);
+  EXPECT_EQ(r.ball.V, s.ball.V);
+  EXPECT_EQ(r.ball.A, s.ball.A);
+  EXPECT_EQ(r.force, s.force);
+  EXPECT_EQ(r.force_before, s.force_before);
+  EXPECT_TRUE(r.had_pressure);
+  EXPECT_EQ(r.summary.steps, 42);
+  EXPECT_EQ(r.summary.max_force, 2.1);
+  EXPECT_TRUE(std::isnan(r.summary.T_lift_off));
+  EXPECT_EQ(r.summary.impulse, 1.0 / 3.0);
+  EXPECT_EQ(r.summary.unconverged_steps, 3);
+  EXPECT_EQ(r.summary.retried_steps, 5);
+  const std::array<std::pair<const Field*, const Field*>, 4> fields = {
+      {{&r.P, &s.P}, {&r.P_before, &s.P_before}, {&r.rhoH, &s.rhoH}, {&r.rhoH_before, &s.rhoH_before}}};
+  for (const auto& [read, written] : fields) {
+    ASSERT_EQ(read->n(), 17);
+    for (std::size_t k = 0; k < read->size(); ++k) ASSERT_EQ((*read)[k], (*written)[k]) << k;
+  }
+}
+
+TEST(Checkpoint, ReadingSomethingElseNamesTheFile) {
+  TempDir dir;
+  const fs::path fields = dir / "fields.nc";
+  {
+    FieldWriter w(fields, Grid2D(9, 1.5), nlohmann::json::object());
+    w.commit();
+  }
+  for (const fs::path& path : {fields, dir / "missing.nc"}) {
+    try {
+      (void)read_checkpoint(path);
+      FAIL() << "expected an error for " << path;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Checkpoint, RestartMustContinueTheSameCase) {
+  const nlohmann::json saved = effective_parameters_json(load_config(std::nullopt, {}));
+  const auto parameters = [](const std::vector<std::string>& overrides) {
+    return effective_parameters_json(load_config(std::nullopt, overrides));
+  };
+  // Solver, output and spike settings and the end time may change ...
+  EXPECT_NO_THROW(check_restart_compatible(
+      saved,
+      parameters({"solver.switch_ratio=10", "solver.max_cycles=40", "output.snapshot_every=1",
+                  "spike.filter=\"gaussian\"", "time.T_end=3.5", "output.checkpoint_every=5"}),
+      "c.nc"));
+  // ... the case, the grid, the time step and the discrete flux may not.
+  const std::vector<std::pair<std::string, std::string>> changes = {
+      {"case.M=20", "case.M"},
+      {"grid.points=129", "grid.points"},
+      {"time.dT=0.01", "time.dT"},
+      {"body.elastic=false", "body.elastic"},
+      {"time.Delta0=0.5", "time.Delta0"},
+      {"solver.face_mean=\"harmonic\"", "solver.face_mean"},
+  };
+  for (const auto& [change, key] : changes) {
+    try {
+      check_restart_compatible(saved, parameters({change}), "c.nc");
+      FAIL() << "expected an error for " << change;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), key) << e.what();
+      EXPECT_NE(std::string(e.what()).find("checkpoint 'c.nc'"), std::string::npos) << e.what();
+    }
   }
 }
 

@@ -89,6 +89,7 @@ struct ImpactConfig {
   int snapshot_every = 20;
   std::vector<double> snapshot_times;
   double snapshot_start = 0.0;  ///< the periodic snapshots begin at this time
+  int checkpoint_every = 0;     ///< steps between checkpoints (0: none)
 
   // [spike] the pressure-spike analysis (spike.csv, `ehlsim spike`)
   SpikeSettings spike;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -71,6 +72,9 @@ struct ImpactProblem::Impl {
   Field P_before;            ///< pressure of the time level before the last one
   BdfCoefficients bdf = kBdf1;
   ImpactProblem::CycleMonitor monitor;
+  std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
+  int state_every = 0;
+  ImpactProblem::StateSink state_sink;
   int last_cycles = 0;
   int unconverged_steps = 0;
   int retried_steps = 0;
@@ -290,30 +294,51 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
   observer.on_start(grid);
 
-  // Initial state: the ball at Delta0 moving towards the flat, with the film
-  // pressure that this motion already carries (see solve_initial_pressure).
-  BallState ball{0.0, cfg.Delta0, -cfg.V0, 0.0};
-  const double initial_force = solve_initial_pressure();
-  ball.A = kForceToAcceleration * initial_force;
-  const Field& H0 = levels.front()->op().film();
-  const Field& rho0 = levels.front()->op().density();
-  for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
-  rhoH_old = rhoH_now;
-
   RunSummary summary;
-  summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
-  summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
-  summary.min_h_center = std::numeric_limits<double>::infinity();
-  summary.initial_force = initial_force;
-  double force_now = initial_force, force_before = initial_force;
-  double impulse = 0.0;
+  BallState ball;
+  double force_now = 0.0, force_before = 0.0;
   bool had_pressure = false;
-  for (int step = 1;; ++step) {
+  int first_step = 1;
+  if (restart) {
+    // The state a checkpoint stored: the time levels, the ball and the
+    // summary so far; the multigrid hierarchy starts from the last pressure.
+    ImpactState& s = *restart;
+    ball = s.ball;
+    force_now = s.force;
+    force_before = s.force_before;
+    had_pressure = s.had_pressure;
+    summary = s.summary;
+    unconverged_steps = summary.unconverged_steps;
+    retried_steps = summary.retried_steps;
+    solver->solution() = s.P;
+    P_before = s.P_before;
+    rhoH_now = s.rhoH;
+    rhoH_old = s.rhoH_before;
+    set_delta(ball.Delta);
+    first_step = s.step + 1;
+    restart.reset();
+  } else {
+    // Initial state: the ball at Delta0 moving towards the flat, with the film
+    // pressure that this motion already carries (see solve_initial_pressure).
+    ball = {0.0, cfg.Delta0, -cfg.V0, 0.0};
+    const double initial_force = solve_initial_pressure();
+    ball.A = kForceToAcceleration * initial_force;
+    const Field& H0 = levels.front()->op().film();
+    const Field& rho0 = levels.front()->op().density();
+    for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
+    rhoH_old = rhoH_now;
+    summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
+    summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
+    summary.min_h_center = std::numeric_limits<double>::infinity();
+    summary.initial_force = initial_force;
+    force_now = force_before = initial_force;
+  }
+  for (int step = first_step;; ++step) {
     // Linear extrapolation of the force is the initial guess of the new separation.
     const double guess = step > 2 ? 2.0 * force_now - force_before : force_now;
     const double force = solve_time_step(step, ball, guess);
     ball = newmark.advance(ball, force);
-    impulse += 0.5 * (force_now + force) * dT * kForceToAcceleration;
+    summary.impulse += 0.5 * (force_now + force) * dT * kForceToAcceleration;
     force_before = force_now;
     force_now = force;
 
@@ -340,6 +365,12 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
       summary.min_h_center = record.h_center;
       summary.T_min_h_center = ball.T;
     }
+    if (state_sink && state_every > 0 && step % state_every == 0 && !lifted_off && !at_end) {
+      summary.unconverged_steps = unconverged_steps;
+      summary.retried_steps = retried_steps;
+      state_sink(ImpactState{step, ball, force_now, force_before, had_pressure, summary,
+                             solver->solution(), P_before, rhoH_now, rhoH_old});
+    }
     if (lifted_off) {
       summary.lifted_off = true;
       summary.T_lift_off = ball.T;
@@ -348,7 +379,6 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     }
     if (at_end) break;
   }
-  summary.impulse = impulse;
   summary.unconverged_steps = unconverged_steps;
   summary.retried_steps = retried_steps;
   summary.wall_seconds =
@@ -362,5 +392,22 @@ ImpactProblem::~ImpactProblem() = default;
 RunSummary ImpactProblem::run(ImpactObserver& observer) { return impl_->run(observer); }
 const ImpactConfig& ImpactProblem::config() const { return impl_->cfg; }
 void ImpactProblem::set_cycle_monitor(CycleMonitor monitor) { impl_->monitor = std::move(monitor); }
+
+void ImpactProblem::restart_from(ImpactState state) {
+  const Grid2D& grid = impl_->grid;
+  for (const Field* f : {&state.P, &state.P_before, &state.rhoH, &state.rhoH_before}) {
+    if (f->n() != grid.n || f->size() != grid.size())
+      throw std::invalid_argument(fmt::format(
+          "restart: the state's fields have {} points per side, the problem's grid {}", f->n(),
+          grid.n));
+  }
+  if (state.step < 1) throw std::invalid_argument("restart: the state is before the first step");
+  impl_->restart = std::move(state);
+}
+
+void ImpactProblem::set_state_sink(int every, StateSink sink) {
+  impl_->state_every = every;
+  impl_->state_sink = std::move(sink);
+}
 
 }  // namespace ehlsim

@@ -7,6 +7,7 @@
 
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactObserver.hpp"
+#include "impact/ImpactState.hpp"
 
 namespace ehlsim {
 
@@ -25,6 +26,16 @@ class ImpactProblem {
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;
+
+  /// Continue from `state` (a checkpoint of the same case) instead of starting
+  /// at Delta0: the next run() begins with step state.step + 1.  Throws
+  /// std::invalid_argument when the fields are not on this problem's grid.
+  void restart_from(ImpactState state);
+
+  /// Hand the state to `sink` at the end of every `every`-th step (0: never),
+  /// e.g. to write a checkpoint.
+  using StateSink = std::function<void(const ImpactState& state)>;
+  void set_state_sink(int every, StateSink sink);
 
   /// Called after every multigrid cycle with (step, cycle, residual): for
   /// convergence studies and tests; the residual before the first cycle of a

@@ -291,6 +291,9 @@ std::vector<ParameterSpec> build_registry() {
                       "store P and H every this many time steps"));
   r.push_back(real_array("output.snapshot_times", at_least(0),
                          "also store the first step at or after each of these times"));
+  r.push_back(integer("output.checkpoint_every", 0, at_least(0), none, false,
+                      "write checkpoint.nc (for `ehlsim impact --restart`) every this many "
+                      "steps; 0: never"));
   // [solver]
   r.push_back(choice("solver.cycle", kCycleV, {std::string(kCycleV), std::string(kCycleW)},
                      "multigrid cycle type"));
@@ -918,6 +921,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.waviness_angle_deg = in.real("surface.waviness_angle_deg");
   c.snapshot_every = in.integer("output.snapshot_every");
   c.snapshot_times = in.get<std::vector<double>>("output.snapshot_times");
+  c.checkpoint_every = in.integer("output.checkpoint_every");
   c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
   c.tolerance = in.real("solver.tolerance");
   c.max_cycles = in.integer("solver.max_cycles");
@@ -1050,7 +1054,9 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["surface"] = {{"waviness_amplitude", c.waviness_amplitude},
                   {"waviness_wavelength", c.waviness_wavelength},
                   {"waviness_angle_deg", c.waviness_angle_deg}};
-  j["output"] = {{"snapshot_every", c.snapshot_every}, {"snapshot_times", c.snapshot_times}};
+  j["output"] = {{"snapshot_every", c.snapshot_every},
+                 {"snapshot_times", c.snapshot_times},
+                 {"checkpoint_every", c.checkpoint_every}};
   j["solver"] = {{"cycle", cycle_type_text(c.cycle)},
                  {"tolerance", c.tolerance},
                  {"max_cycles", c.max_cycles},
