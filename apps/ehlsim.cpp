@@ -113,9 +113,10 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
              std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
              c.Delta0, c.V0);
   fmt::print("  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
-             "deformation {}\n",
+             "deformation {}, lines {}\n",
              cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
-             c.coarsest_points, deformation_method_text(c.deformation));
+             c.coarsest_points, deformation_method_text(c.deformation),
+             c.relaxation.alternate_directions ? "along X and Y in turn" : "along X");
   fmt::print("  output     fields every {} steps{}\n", c.snapshot_every,
              c.snapshot_times.empty() ? std::string()
                                       : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));

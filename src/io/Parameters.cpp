@@ -142,6 +142,8 @@ const int kDefaultCoarsestPoints = kDefaults.coarsest_points;
 constexpr std::string_view kArithmetic = "arithmetic";
 constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
+constexpr std::string_view kLinesAlternating = "alternating";
+constexpr std::string_view kLinesX = "x";
 
 FaceMean face_mean_from_text(std::string_view text) {
   if (text == kHarmonic) return FaceMean::Harmonic;
@@ -319,6 +321,10 @@ std::vector<ParameterSpec> build_registry() {
                    at_most(1), "", "under-relaxation of the Gauss-Seidel line changes"));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
+  r.push_back(choice("solver.line_directions",
+                     relax.alternate_directions ? kLinesAlternating : kLinesX,
+                     {std::string(kLinesAlternating), std::string(kLinesX)},
+                     "relaxation lines: along X and Y in turn (alternating), or along X only"));
   r.push_back(choice("solver.face_mean", kArithmetic,
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
@@ -931,6 +937,8 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.relaxation.switch_ratio = in.real("solver.switch_ratio");
   c.relaxation.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
   c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
+  c.relaxation.alternate_directions =
+      in.get<std::string>("solver.line_directions") == kLinesAlternating;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                       : DeformationMethod::Fft;
@@ -1067,6 +1075,8 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"switch_ratio", c.relaxation.switch_ratio},
                  {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
                  {"omega_jacobi", c.relaxation.omega_jacobi},
+                 {"line_directions",
+                  c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
                  {"face_mean", face_mean_text(c.face_mean)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},

@@ -23,10 +23,13 @@ LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings
     : op_(op), settings_(settings), jacobi_change_(op.grid()) {}
 
 void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
-  for (int s = 0; s < sweeps; ++s) sweep(P, f);
+  for (int s = 0; s < sweeps; ++s) {
+    const bool along_y = settings_.alternate_directions && s % 2 == 1;
+    sweep(P, f, along_y ? LineDirection::Y : LineDirection::X);
+  }
 }
 
-void LineRelaxation::sweep(Field& P, const Field& f) {
+void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   const int n = op_.grid().n;
   long gs = 0, jac = 0;
   const double w = settings_.omega_jacobi * damping_;
@@ -37,6 +40,7 @@ void LineRelaxation::sweep(Field& P, const Field& f) {
   // the elastic deformation) are brought up to date before each colour, so
   // each colour sees every change of the other one, through the flow and the
   // elastic terms alike.
+  const bool along_x = direction == LineDirection::X;
   for (int colour = 0; colour < 2; ++colour) {
     op_.update_coefficients(P);
     jacobi_change_.fill(0.0);
@@ -46,14 +50,15 @@ void LineRelaxation::sweep(Field& P, const Field& f) {
       std::vector<double> rhs(n - 2);
       std::vector<char> is_jacobi(n - 2);
 #pragma omp for schedule(static)
-      for (int j = 1 + colour; j < n - 1; j += 2) {
-        relax_line(P, f, j, rhs, is_jacobi);
-        for (int i = 1; i < n - 1; ++i) {
-          if (is_jacobi[i - 1]) {
-            jacobi_change_(i, j) = rhs[i - 1];
+      for (int line = 1 + colour; line < n - 1; line += 2) {
+        relax_line(P, f, line, direction, rhs, is_jacobi);
+        for (int a = 1; a < n - 1; ++a) {
+          const int i = along_x ? a : line, j = along_x ? line : a;
+          if (is_jacobi[a - 1]) {
+            jacobi_change_(i, j) = rhs[a - 1];
             ++colour_jac;
           } else {
-            P(i, j) = std::max(0.0, P(i, j) + w_gs * rhs[i - 1]);
+            P(i, j) = std::max(0.0, P(i, j) + w_gs * rhs[a - 1]);
             ++gs;
           }
         }
@@ -74,8 +79,15 @@ void LineRelaxation::sweep(Field& P, const Field& f) {
   stats_ = {gs, jac};
 }
 
-void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<double>& rhs,
-                                std::vector<char>& is_jacobi) {
+void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
+                                std::vector<double>& rhs, std::vector<char>& is_jacobi) {
+  // Point a = 1..n-2 of the line is (a, line) on an X line, (line, a) on a Y
+  // line; (di, dj) steps along the line.  The kernel is symmetric, K(d, 0) =
+  // K(0, d), so the band of the elastic term is the same for both.
+  const bool along_x = direction == LineDirection::X;
+  const auto I = [&](int a) { return along_x ? a : line; };
+  const auto J = [&](int a) { return along_x ? line : a; };
+  const int di = along_x ? 1 : 0, dj = along_x ? 0 : 1;
   const Grid2D& grid = op_.grid();
   const int n = grid.n;
   const int m = n - 2;
@@ -97,20 +109,22 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
                kDistribution * (op_.kernel(d - 1, 0) + op_.kernel(d + 1, 0) + 2.0 * op_.kernel(d, 1));
   }
 
-  // Face coefficients of the line, divided by h^2: west, east, south, north.
+  // Face coefficients of the line, divided by h^2: backward and forward
+  // along the line (cw, ce), backward and forward across it (cs, cn).
   thread_local std::vector<double> cw, ce, cs, cn;
   cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
-  for (int i = 1; i < n - 1; ++i) {
-    cw[i - 1] = op_.face(i, j, -1, 0) / h2;
-    ce[i - 1] = op_.face(i, j, 1, 0) / h2;
-    cs[i - 1] = op_.face(i, j, 0, -1) / h2;
-    cn[i - 1] = op_.face(i, j, 0, 1) / h2;
-    const double flow = cw[i - 1] + ce[i - 1] + cs[i - 1] + cn[i - 1];
+  for (int a = 1; a < n - 1; ++a) {
+    const int i = I(a), j = J(a);
+    cw[a - 1] = op_.face(i, j, -di, -dj) / h2;
+    ce[a - 1] = op_.face(i, j, di, dj) / h2;
+    cs[a - 1] = op_.face(i, j, -dj, -di) / h2;
+    cn[a - 1] = op_.face(i, j, dj, di) / h2;
+    const double flow = cw[a - 1] + ce[a - 1] + cs[a - 1] + cn[a - 1];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
-    is_jacobi[i - 1] = elastic && is_pressurized(P, i, j) &&
+    is_jacobi[a - 1] = elastic && is_pressurized(P, i, j) &&
                        flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
-    rhs[i - 1] = f(i, j) - op_.apply_at(P, i, j);
+    rhs[a - 1] = f(i, j) - op_.apply_at(P, i, j);
   }
 
   thread_local BandMatrix A(0, kHalfBand);
@@ -118,9 +132,10 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
   A.clear();
   // Row a (point i = a + 1): derivative of N_i with respect to the change of column c.
   for (int a = 0; a < m; ++a) {
-    const double elastic_scale = -squeeze * rho(a + 1, j);
-    // d N_a / d P at the point itself, its west and east neighbour (flow part).
-    const double self = -(cw[a] + ce[a] + cs[a] + cn[a]) - squeeze * drho(a + 1, j) * H(a + 1, j);
+    const int i = I(a + 1), j = J(a + 1);
+    const double elastic_scale = -squeeze * rho(i, j);
+    // d N_a / d P at the point itself, its neighbours along the line (flow part).
+    const double self = -(cw[a] + ce[a] + cs[a] + cn[a]) - squeeze * drho(i, j) * H(i, j);
     const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
     for (int c = first; c <= last; ++c) {
       const int d = std::abs(a - c);
@@ -153,7 +168,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
   residual = rhs;
   fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
   for (int a = 0; a < m; ++a)
-    if (P(a + 1, j) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
+    if (P(I(a + 1), J(a + 1)) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
   for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
     work = A;
     rhs = residual;
@@ -169,8 +184,9 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int j, std::vector<dou
     bool changed = false;
     for (int a = 0; a < m; ++a) {
       if (is_jacobi[a] || !std::isnan(fixed_change[a])) continue;
-      if (P(a + 1, j) + omega * rhs[a] < 0.0) {
-        fixed_change[a] = -P(a + 1, j) / omega;
+      const double p = P(I(a + 1), J(a + 1));
+      if (p + omega * rhs[a] < 0.0) {
+        fixed_change[a] = -p / omega;
         changed = true;
       }
     }

@@ -1,8 +1,13 @@
 #pragma once
 // Line relaxation of the transient EHL Reynolds equation (Venner & Lubrecht,
-// MultiLevel Methods in Lubrication, 2000, ch. 11-12), one line of constant Y
-// at a time, lines in zebra order (odd, then even; the lines of one colour are
-// independent and relaxed in parallel).
+// MultiLevel Methods in Lubrication, 2000, ch. 11-12), one grid line at a
+// time, lines in zebra order (odd, then even; the lines of one colour are
+// independent and relaxed in parallel).  The lines run along X, or along X and
+// Y in turn: the impact has no preferred direction, and the hard part of its
+// solution, the spike ring at the edge of the receding contact, is a curve
+// that X lines cross at every angle.  Where they run along the ring, its
+// strong radial coupling is left to the point-wise part of the sweep; lines
+// along Y cover exactly those parts.
 //
 // Each point is of one of two kinds, chosen from the frozen coefficients:
 //  - Gauss-Seidel (flow-dominated: xi / h^2 large against the elastic-squeeze
@@ -34,7 +39,14 @@ struct RelaxationSettings {
   double switch_ratio = 3.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
   double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
+  /// Sweeps alternate between lines along X and lines along Y (X, Y, X, ...
+  /// within each relax() call); false: X lines only.  Alternating is what
+  /// carries a 513^2 run through the spike phase (docs/model.md).
+  bool alternate_directions = true;
 };
+
+/// The grid direction the lines of a sweep run along.
+enum class LineDirection { X, Y };
 
 /// Statistics of the last sweep (for diagnostics and tests).
 struct SweepStats {
@@ -48,15 +60,17 @@ class LineRelaxation {
 
   /// `sweeps` sweeps on N(P) = f; P >= 0 and P = 0 on the boundary are kept.
   void relax(Field& P, const Field& f, int sweeps);
+  /// One zebra sweep with lines along `direction` (relax() chooses the
+  /// direction per sweep from the settings).
+  void sweep(Field& P, const Field& f, LineDirection direction);
   [[nodiscard]] const SweepStats& last_sweep() const { return stats_; }
   /// Scales both under-relaxation factors of the settings by `factor` (1: as set).
   void set_damping(double factor) { damping_ = factor; }
 
  private:
-  void sweep(Field& P, const Field& f);
-  /// Builds and solves the system of line j; returns the kinds and changes.
-  void relax_line(Field& P, const Field& f, int j, std::vector<double>& rhs,
-                  std::vector<char>& is_jacobi);
+  /// Builds and solves the system of one line; returns the kinds and changes.
+  void relax_line(Field& P, const Field& f, int line, LineDirection direction,
+                  std::vector<double>& rhs, std::vector<char>& is_jacobi);
 
   ReynoldsOperator& op_;
   RelaxationSettings settings_;
