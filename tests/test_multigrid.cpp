@@ -59,6 +59,9 @@ TEST(Transfer, FullWeightingPreservesSmoothFieldsToSecondOrder) {
 class ModelLevel final : public FasLevel {
  public:
   explicit ModelLevel(const Grid2D& g) : grid_(g) {}
+  /// A level whose smoother leaves a large error at the centre after every
+  /// relaxation: a coarse problem that cannot represent the solution.
+  void sabotage(double amount) { sabotage_ = amount; }
   [[nodiscard]] const Grid2D& grid() const override { return grid_; }
   void apply(const Field& u, Field& Nu) override {
     Nu.fill(0.0);
@@ -79,6 +82,7 @@ class ModelLevel final : public FasLevel {
             const double diag = 4.0 / h2 + 3.0 * u(i, j) * u(i, j);
             u(i, j) += (f(i, j) - at(u, i, j)) / diag;
           }
+    u((grid_.n - 1) / 2, (grid_.n - 1) / 2) += sabotage_;
   }
   void project(Field& /*u*/) override {}
 
@@ -89,7 +93,80 @@ class ModelLevel final : public FasLevel {
            u(i, j) * u(i, j) * u(i, j);
   }
   Grid2D grid_;
+  double sabotage_ = 0.0;
 };
+
+/// The hierarchy 129^2 ... 5^2 of the model problem, with the solver's right-hand
+/// side for the solution sin(pi x) sin(pi y).
+struct ModelHierarchy {
+  std::vector<std::unique_ptr<ModelLevel>> owned;
+  std::vector<FasLevel*> levels;
+  explicit ModelHierarchy(int n) {
+    for (Grid2D g(n, 1.0); g.n >= 5; g = g.coarser()) {
+      owned.push_back(std::make_unique<ModelLevel>(g));
+      levels.push_back(owned.back().get());
+      if (!g.coarser().coarsenable()) break;
+    }
+  }
+  void set_rhs(FasSolver& solver) const {
+    const Grid2D& g = levels.front()->grid();
+    const double pi = std::numbers::pi;
+    Field& f = solver.rhs();
+    for (int j = 1; j < g.n - 1; ++j)
+      for (int i = 1; i < g.n - 1; ++i) {
+        const double u = std::sin(pi * g.x(i)) * std::sin(pi * g.y(j));
+        f(i, j) = 2.0 * pi * pi * u + u * u * u;
+      }
+  }
+};
+
+TEST(FasSolver, SafeguardUndoesCorrectionsThatMakeTheResidualWorse) {
+  // The second level's smoother plants an error of 1000 at the centre: its
+  // correction would raise the fine residual by orders of magnitude.  Guarded,
+  // the correction is undone, and the cycle is exactly its fine-grid smoothing.
+  const FasSettings defaults;
+  const auto one_cycle = [&](double safeguard, long* rejected, Field* u) {
+    ModelHierarchy model(65);
+    model.owned[1]->sabotage(1000.0);
+    FasSettings settings;
+    settings.correction_safeguard = safeguard;
+    FasSolver solver(model.levels, settings);
+    model.set_rhs(solver);
+    const double before = solver.residual_norm();
+    solver.cycle();
+    *rejected = solver.rejected_corrections();
+    *u = solver.solution();
+    return solver.residual_norm() / before;
+  };
+  long rejected = 0;
+  Field unguarded, guarded;
+  EXPECT_GT(one_cycle(0.0, &rejected, &unguarded), 100.0);
+  EXPECT_EQ(rejected, 0);
+  const double guarded_ratio = one_cycle(10.0, &rejected, &guarded);
+  EXPECT_LT(guarded_ratio, 2.0);
+  // Only the finest level's correction is undone: the second level judges its
+  // own correction against a residual that already holds the planted error.
+  EXPECT_EQ(rejected, 1);
+
+  ModelHierarchy model(65);
+  FasSolver reference(model.levels, defaults);
+  model.set_rhs(reference);
+  Field smoothed(model.levels.front()->grid());
+  model.levels.front()->relax(smoothed, reference.rhs(), defaults.pre_sweeps + defaults.post_sweeps);
+  for (std::size_t k = 0; k < smoothed.size(); ++k) ASSERT_EQ(guarded[k], smoothed[k]) << k;
+}
+
+TEST(FasSolver, SafeguardLeavesAWorkingCycleAlone) {
+  ModelHierarchy model(129);
+  FasSettings settings;
+  settings.correction_safeguard = 10.0;
+  FasSolver solver(model.levels, settings);
+  model.set_rhs(solver);
+  const double start = solver.residual_norm();
+  for (int c = 0; c < 6; ++c) solver.cycle();
+  EXPECT_EQ(solver.rejected_corrections(), 0);
+  EXPECT_LT(solver.residual_norm() / start, std::pow(0.15, 6));
+}
 
 TEST(FasSolver, VCycleReducesTheResidualOfANonlinearProblemByTenPerCycle) {
   std::vector<std::unique_ptr<ModelLevel>> owned;

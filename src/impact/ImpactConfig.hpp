@@ -78,6 +78,11 @@ struct ImpactConfig {
   /// Cycles per attempt of a time step.  20: the hardest steps of the spike
   /// phase converge at 0.5-0.7 per cycle from a start residual ~1e-1 (257^2).
   int max_cycles = 20;
+  /// In the retries of a step: undo a coarse-grid correction that raises its
+  /// level's residual norm more than this many times (multigrid/Fas.hpp); 0:
+  /// never.  10: a good correction lowers the norm 5-7 times, the largest rise
+  /// seen in converging 129^2 steps was 4.3.
+  double correction_safeguard = 10.0;
   int pre_sweeps = 3;
   int post_sweeps = 2;
   int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side

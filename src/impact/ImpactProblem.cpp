@@ -186,6 +186,10 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
   for (int attempt = 0;; ++attempt) {
     const double damping = std::pow(kRetryDamping, attempt);
     for (auto& level : levels) level->smoother().set_damping(damping);
+    // The retries also guard against coarse-grid corrections that make the
+    // residual worse (multigrid/Fas.hpp): on 513^2 the coarse grids cannot
+    // represent the spike, and their corrections blew steps up.
+    solver->set_correction_safeguard(attempt > 0 ? cfg.correction_safeguard : 0.0);
     bool converged = false;
     bool diverged = false;
     try {

@@ -304,6 +304,10 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(integer("solver.max_cycles", kDefaultMaxCycles, at_least(1), none, false,
                       "multigrid cycles per attempt of a time step (a stalled step is retried "
                       "with more damping)"));
+  r.push_back(real("solver.correction_safeguard", kDefaults.correction_safeguard, "", at_least(0),
+                   none, "",
+                   "in the retries of a step, undo a coarse-grid correction that raises the "
+                   "residual norm of its level more than this many times (0: never)"));
   r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
@@ -931,6 +935,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
   c.tolerance = in.real("solver.tolerance");
   c.max_cycles = in.integer("solver.max_cycles");
+  c.correction_safeguard = in.real("solver.correction_safeguard");
   c.pre_sweeps = in.integer("solver.pre_sweeps");
   c.post_sweeps = in.integer("solver.post_sweeps");
   c.coarsest_points = in.integer("solver.coarsest_points");
@@ -1068,6 +1073,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"] = {{"cycle", cycle_type_text(c.cycle)},
                  {"tolerance", c.tolerance},
                  {"max_cycles", c.max_cycles},
+                 {"correction_safeguard", c.correction_safeguard},
                  {"pre_sweeps", c.pre_sweeps},
                  {"post_sweeps", c.post_sweeps},
                  {"coarsest_points", c.coarsest_points},

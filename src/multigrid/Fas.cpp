@@ -20,6 +20,7 @@ FasSolver::FasSolver(std::vector<FasLevel*> levels, FasSettings settings)
     r_.emplace_back(level->grid());
     u_coarse_old_.emplace_back(level->grid());
     scratch_.emplace_back(level->grid());
+    saved_.emplace_back(level->grid());
   }
 }
 
@@ -36,6 +37,8 @@ void FasSolver::cycle_on(int l) {
   // FAS coarse problem: N_c(u_c) = N_c(I u) + R (f - N(u)).
   FasLevel& coarse = *levels_[l + 1];
   level.residual(u_[l], f_[l], r_[l]);
+  const bool safeguard = settings_.correction_safeguard > 0.0;
+  const double residual_before = safeguard ? level.norm(r_[l]) : 0.0;
   inject(u_[l], u_[l + 1]);
   restrict_full_weighting(r_[l], f_[l + 1]);
   coarse.apply(u_[l + 1], scratch_[l + 1]);
@@ -51,7 +54,17 @@ void FasSolver::cycle_on(int l) {
   Field& fine_correction = r_[l];  // the residual is not needed any more
   fine_correction.fill(0.0);
   prolong_bilinear_add(correction, fine_correction);
+  if (safeguard) saved_[l] = u_[l];
   level.correct(u_[l], fine_correction);
+  if (safeguard) {
+    Field& residual_after = scratch_[l];  // free while this level is being cycled
+    level.residual(u_[l], f_[l], residual_after);
+    const double after = level.norm(residual_after);
+    if (!(after <= settings_.correction_safeguard * residual_before)) {
+      u_[l] = saved_[l];
+      ++rejected_corrections_;
+    }
+  }
 
   level.relax(u_[l], f_[l], settings_.post_sweeps);
 }
