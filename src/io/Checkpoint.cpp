@@ -176,7 +176,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   std::size_t n = 0;
   nc.check(nc_inq_dimid(nc.id, "x", &dim_x), "dimension x");
   nc.check(nc_inq_dimlen(nc.id, dim_x, &n), "dimension x");
-  const double half_width = c.parameters.at("grid").at("half_width").get<double>();
+  double half_width = 0.0;
+  try {
+    half_width = c.parameters.at("grid").at("half_width").get<double>();
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error(
+        fmt::format("checkpoint '{}': its parameters have no grid.half_width", path.string()));
+  }
   const Grid2D grid(static_cast<int>(n), half_width);
   for_each_field(s, [&](const char* name, const char*, Field& f) {
     f = Field(grid);
