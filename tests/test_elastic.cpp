@@ -2,6 +2,8 @@
 // analytic solutions (model.md, "Analytic checks").
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -193,8 +195,32 @@ TEST_P(FftVsDirect, RandomPressure) {
 
 // Powers of two plus one, and n = 21 (m = 40) and 23 (2n-2 = 44 = 4 * 11 is not
 // 7-smooth: m = 48 > 2n - 1, the padding is then strictly larger).
-// 129 and up: the transforms run in batches on the OpenMP threads.
+// 129: from this size on the transforms are cut into one batch per OpenMP thread (a single
+// batch under ctest, which runs one thread; BatchesOnAnyNumberOfThreads sets 2 and 3).
 INSTANTIATE_TEST_SUITE_P(Sizes, FftVsDirect, ::testing::Values(17, 21, 23, 33, 65, 129));
+
+TEST(FftVsDirect, BatchesOnAnyNumberOfThreads) {
+  // From 129^2 on, the transforms run in one batch per OpenMP thread of the
+  // team the FftDeformation was made under (ctest runs with one thread, so the
+  // batches are set up here explicitly); uneven shares included (3 threads).
+  const Grid2D g(129, kHalfWidth);
+  std::mt19937 rng(2022);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Field P(g);
+  for (std::size_t k = 0; k < P.size(); ++k) P[k] = uniform(rng);
+  DirectDeformation direct(g);
+  Field Wd;
+  direct.apply(P, Wd);
+  const int threads_before = omp_get_max_threads();
+  for (const int threads : {2, 3}) {
+    omp_set_num_threads(threads);
+    FftDeformation fft(g, FftPlanning::Estimate);
+    Field Wf;
+    fft.apply(P, Wf);
+    EXPECT_LT(max_diff(Wf, Wd) / max_abs(Wd), 1e-12) << threads << " threads";
+  }
+  omp_set_num_threads(threads_before);
+}
 
 TEST(Deformation, PointLoadGivesKernelIncludingLargestOffset) {
   // A unit load at a corner: W(i, j) = K(i, j) exactly.  W at the opposite
