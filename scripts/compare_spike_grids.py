@@ -7,33 +7,26 @@ with the differences between successive grids and, for three grids, the observed
 
 Each RUN is a run directory of `ehlsim impact` (or a case directory of `ehlsim study`), coarse
 to fine.  Steps that did not converge (final residual above 100 x solver.tolerance, see
-scripts/plot_study.py) and everything after them are left out.
+scripts/study_data.py) and everything after them are left out.
 """
 import argparse
-import csv
 import json
 import math
 import os
 
 import numpy as np
 
-DIVERGED_RESIDUAL_FACTOR = 100.0
+from study_data import first_unconverged_step, read_csv
+
 DEFAULT_TIMES = [2.8, 3.0, 3.25, 3.5, 3.75, 3.9, 4.0, 4.05]
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
 def load(run_dir):
     run = json.load(open(os.path.join(run_dir, "run.json")))
     ts = read_csv(os.path.join(run_dir, "timeseries.csv"))
     spike = read_csv(os.path.join(run_dir, "spike.csv"))
-    limit = DIVERGED_RESIDUAL_FACTOR * run["parameters"]["solver"]["tolerance"]
-    bad = ~np.isfinite(ts["residual"]) | (ts["residual"] > limit)
-    T_end = ts["T"][np.argmax(bad)] if bad.any() else np.inf
+    T_unconverged, _ = first_unconverged_step(run, ts)
+    T_end = T_unconverged if T_unconverged is not None else np.inf
     keep = spike["T"] < T_end - 1e-9
     return {"n": run["grid"]["points"], "h": run["grid"]["h"], "T": spike["T"][keep],
             "R_s": spike["R_s"][keep], "T_lift_off": run["results"]["T_lift_off"]}

@@ -21,6 +21,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from study_data import first_unconverged_step, read_csv  # noqa: E402
+
 CASES = [10, 20, 50, 100]          # the paper's M, with L = 10
 PROFILE_CASE = 100                 # figures 3, 4, 6: M = 100
 COMPARISON_CASE = 10               # figures 1, 2: M = 10 at T = 3.574
@@ -35,18 +37,7 @@ PAPER_MAX_DEFORMATION_T = 3.0      # the paper's "maximum deformation point T = 
 EARLY_WINDOW = 0.1                 # V_s near T = 3: mean over T = 3 +- this
 LATE_STEPS = 3                     # V_s just before lift-off: mean of the last 3 spike steps
 COMPARISON_TIMES = [3.0, 3.5, 3.75, 4.0]   # R_s against A_dry in summary.json
-# A step whose final residual exceeds this many times solver.tolerance did not converge in any
-# attempt; from the first such step on, a case is cut off (its fields can be meaningless).
-DIVERGED_RESIDUAL_FACTOR = 100.0
 DPI = 130
-
-
-def read_csv(path):
-    """Columns of a CSV file with a header, as float arrays (nan allowed)."""
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    header, data = rows[0], rows[1:]
-    return {name: np.array([float(r[k]) for r in data]) for k, name in enumerate(header)}
 
 
 def write_csv(path, header, rows):
@@ -89,10 +80,7 @@ def load_case(study, M):
 def truncate_at_divergence(case):
     """Drops every step from the first one the solver did not converge (residual far above
     its tolerance, or non-finite values) on, and records its time in case["T_diverged"]."""
-    ts = case["ts"]
-    limit = DIVERGED_RESIDUAL_FACTOR * case["run"]["parameters"]["solver"]["tolerance"]
-    bad = ~np.isfinite(ts["residual"]) | (ts["residual"] > limit) | ~np.isfinite(ts["Delta"])
-    case["T_diverged"] = float(ts["T"][np.argmax(bad)]) if bad.any() else None
+    case["T_diverged"], limit = first_unconverged_step(case["run"], case["ts"])
     if case["T_diverged"] is None:
         return
     T_end = case["T_diverged"] - 1e-9
