@@ -12,6 +12,7 @@
 
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
+#include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 
 namespace ehlsim {
@@ -59,19 +60,18 @@ void for_each_field(State& s, Visit&& visit) {
   visit("rhoH_before", "rho H at the time level before", s.rhoH_before);
 }
 
+/// An open NetCDF file, closed on destruction; `action` names what is done
+/// with it in error messages ("read checkpoint", "write checkpoint").
 class NcFile {
  public:
-  NcFile(std::filesystem::path path, std::string_view verb) : path_(std::move(path)), verb_(verb) {}
+  NcFile(std::filesystem::path path, std::string_view action)
+      : path_(std::move(path)), action_(action) {}
   ~NcFile() {
     if (id >= 0) nc_close(id);
   }
   NcFile(const NcFile&) = delete;
   NcFile& operator=(const NcFile&) = delete;
-  void check(int status, std::string_view what) const {
-    if (status != NC_NOERR)
-      throw std::runtime_error(fmt::format("cannot {} checkpoint '{}': {}: {}", verb_,
-                                           path_.string(), what, nc_strerror(status)));
-  }
+  void check(int status, std::string_view what) const { check_netcdf(status, action_, path_, what); }
   void close() {
     const int status = nc_close(id);
     id = -1;
@@ -81,7 +81,7 @@ class NcFile {
 
  private:
   std::filesystem::path path_;
-  std::string_view verb_;
+  std::string_view action_;
 };
 
 std::string read_text_attribute(const NcFile& nc, const char* name) {
@@ -98,7 +98,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
                       const nlohmann::json& parameters) {
   PartialFile file(path);
   {
-    NcFile nc(file.part_path(), "write");
+    NcFile nc(file.part_path(), "write checkpoint");
     nc.check(nc_create(file.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
     const auto text = [&](const char* name, const std::string& value) {
       nc.check(nc_put_att_text(nc.id, NC_GLOBAL, name, value.size(), value.c_str()), name);
@@ -142,7 +142,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
-  NcFile nc(path, "read");
+  NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
   int version = 0;
   if (nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version) != NC_NOERR ||

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <netcdf.h>
 
+#include "io/NetcdfStatus.hpp"
+
 namespace ehlsim {
 
 namespace {
@@ -16,10 +18,7 @@ constexpr double kCoordinateTolerance = 1e-9;
 }  // namespace
 
 void FieldReader::check(int status, const char* what) const {
-  if (status != NC_NOERR) {
-    throw std::runtime_error(
-        fmt::format("cannot read '{}': {}: {}", path_.string(), what, nc_strerror(status)));
-  }
+  check_netcdf(status, "read", path_, what);
 }
 
 FieldReader::FieldReader(const std::filesystem::path& path) : path_(path) {

@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <netcdf.h>
 
+#include "io/NetcdfStatus.hpp"
+
 namespace ehlsim {
 
 namespace {
@@ -40,10 +42,7 @@ nlohmann::json flatten_parameters(const nlohmann::json& parameters) {
 }
 
 void FieldWriter::check(int status, const char* what) const {
-  if (status != NC_NOERR) {
-    throw std::runtime_error(fmt::format("cannot write '{}': {}: {}", file_.part_path().string(),
-                                         what, nc_strerror(status)));
-  }
+  check_netcdf(status, "write", file_.part_path(), what);
 }
 
 FieldWriter::FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
