@@ -76,8 +76,9 @@ struct ImpactProblem::Impl {
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
   int last_cycles = 0;
-  int unconverged_steps = 0;
-  int retried_steps = 0;
+  /// The run's summary so far; the solver counters (unconverged and retried
+  /// steps) are kept in it by solve_time_step.
+  RunSummary summary;
   double last_residual = 0.0;
   double start_residual = 0.0;  ///< residual of the step's initial approximation
 };
@@ -201,7 +202,7 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
       diverged = true;
     }
     if (converged) {
-      if (attempt > 0) ++retried_steps;
+      if (attempt > 0) ++summary.retried_steps;
       return fine.force(solver->solution());
     }
     if (!diverged && last_residual < best_residual) {
@@ -214,8 +215,8 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
     solver->solution() = start;
     set_delta(start_delta);
   }
-  ++unconverged_steps;
-  ++retried_steps;
+  ++summary.unconverged_steps;
+  ++summary.retried_steps;
   solver->solution() = best;
   set_delta(best_delta);
   fine.update_coefficients(best);
@@ -298,7 +299,6 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
   observer.on_start(grid);
 
-  RunSummary summary;
   BallState ball;
   double force_now = 0.0, force_before = 0.0;
   bool had_pressure = false;
@@ -312,13 +312,10 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     force_before = s.force_before;
     had_pressure = s.had_pressure;
     summary = s.summary;
-    unconverged_steps = summary.unconverged_steps;
-    retried_steps = summary.retried_steps;
     solver->solution() = s.P;
     P_before = s.P_before;
     rhoH_now = s.rhoH;
     rhoH_old = s.rhoH_before;
-    set_delta(ball.Delta);
     first_step = s.step + 1;
     restart.reset();
   } else {
@@ -331,6 +328,7 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     const Field& rho0 = levels.front()->op().density();
     for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
     rhoH_old = rhoH_now;
+    summary = RunSummary{};
     summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
     summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
     summary.min_h_center = std::numeric_limits<double>::infinity();
@@ -370,8 +368,6 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
       summary.T_min_h_center = ball.T;
     }
     if (state_sink && state_every > 0 && step % state_every == 0 && !lifted_off && !at_end) {
-      summary.unconverged_steps = unconverged_steps;
-      summary.retried_steps = retried_steps;
       state_sink(ImpactState{step, ball, force_now, force_before, had_pressure, summary,
                              solver->solution(), P_before, rhoH_now, rhoH_old});
     }
@@ -383,8 +379,6 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     }
     if (at_end) break;
   }
-  summary.unconverged_steps = unconverged_steps;
-  summary.retried_steps = retried_steps;
   summary.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   observer.on_finish(summary);
