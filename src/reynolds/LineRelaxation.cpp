@@ -17,6 +17,14 @@ constexpr double kDistribution = 0.25;
 /// Passes of the projected line solve; the active set of a line settles in
 /// one or two passes in practice.
 constexpr int kMaxActiveSetPasses = 4;
+
+struct GridPoint {
+  int i, j;
+};
+/// Point a (1..n-2) of grid line `line`: (a, line) on an X line, (line, a) on a Y line.
+GridPoint line_point(LineDirection direction, int line, int a) {
+  return direction == LineDirection::X ? GridPoint{a, line} : GridPoint{line, a};
+}
 }  // namespace
 
 LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
@@ -40,7 +48,6 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   // the elastic deformation) are brought up to date before each colour, so
   // each colour sees every change of the other one, through the flow and the
   // elastic terms alike.
-  const bool along_x = direction == LineDirection::X;
   for (int colour = 0; colour < 2; ++colour) {
     op_.update_coefficients(P);
     jacobi_change_.fill(0.0);
@@ -53,7 +60,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
       for (int line = 1 + colour; line < n - 1; line += 2) {
         relax_line(P, f, line, direction, rhs, is_jacobi);
         for (int a = 1; a < n - 1; ++a) {
-          const int i = along_x ? a : line, j = along_x ? line : a;
+          const auto [i, j] = line_point(direction, line, a);
           if (is_jacobi[a - 1]) {
             jacobi_change_(i, j) = rhs[a - 1];
             ++colour_jac;
@@ -81,12 +88,10 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
 
 void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
                                 std::vector<double>& rhs, std::vector<char>& is_jacobi) {
-  // Point a = 1..n-2 of the line is (a, line) on an X line, (line, a) on a Y
-  // line; (di, dj) steps along the line.  The kernel is symmetric, K(d, 0) =
-  // K(0, d), so the band of the elastic term is the same for both.
+  // Point a = 1..n-2 of the line is line_point(direction, line, a); (di, dj)
+  // steps along the line.  The kernel is symmetric, K(d, 0) = K(0, d), so the
+  // band of the elastic term is the same for both directions.
   const bool along_x = direction == LineDirection::X;
-  const auto I = [&](int a) { return along_x ? a : line; };
-  const auto J = [&](int a) { return along_x ? line : a; };
   const int di = along_x ? 1 : 0, dj = along_x ? 0 : 1;
   const Grid2D& grid = op_.grid();
   const int n = grid.n;
@@ -114,7 +119,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   thread_local std::vector<double> cw, ce, cs, cn;
   cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
   for (int a = 1; a < n - 1; ++a) {
-    const int i = I(a), j = J(a);
+    const auto [i, j] = line_point(direction, line, a);
     cw[a - 1] = op_.face(i, j, -di, -dj) / h2;
     ce[a - 1] = op_.face(i, j, di, dj) / h2;
     cs[a - 1] = op_.face(i, j, -dj, -di) / h2;
@@ -132,7 +137,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   A.clear();
   // Row a (point i = a + 1): derivative of N_i with respect to the change of column c.
   for (int a = 0; a < m; ++a) {
-    const int i = I(a + 1), j = J(a + 1);
+    const auto [i, j] = line_point(direction, line, a + 1);
     const double elastic_scale = -squeeze * rho(i, j);
     // d N_a / d P at the point itself, its neighbours along the line (flow part).
     const double self = -(cw[a] + ce[a] + cs[a] + cn[a]) - squeeze * drho(i, j) * H(i, j);
@@ -167,8 +172,10 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   thread_local std::vector<double> residual, fixed_change;
   residual = rhs;
   fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
-  for (int a = 0; a < m; ++a)
-    if (P(I(a + 1), J(a + 1)) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
+  for (int a = 0; a < m; ++a) {
+    const auto [i, j] = line_point(direction, line, a + 1);
+    if (P(i, j) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
+  }
   for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
     work = A;
     rhs = residual;
@@ -184,7 +191,8 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
     bool changed = false;
     for (int a = 0; a < m; ++a) {
       if (is_jacobi[a] || !std::isnan(fixed_change[a])) continue;
-      const double p = P(I(a + 1), J(a + 1));
+      const auto [i, j] = line_point(direction, line, a + 1);
+      const double p = P(i, j);
       if (p + omega * rhs[a] < 0.0) {
         fixed_change[a] = -p / omega;
         changed = true;
