@@ -203,41 +203,53 @@ struct FftDeformation::Impl {
     fftw_complex* s = spectrum.get();
     const double* kh = kernel_hat.get();
 
-    // Each stage ends in the barrier of its worksharing loop: a stage reads
-    // what the one before wrote across all batches.
+    // Three stages, each a loop over the batches; a stage reads what the one
+    // before wrote across all batches, so each ends in its loop's barrier.
+    // Within a stage a batch's steps touch only its own rows or columns, so
+    // they need no barrier between them (fewer barriers: less waiting of one
+    // thread for the other, measured at about 10 % of the run time).
 #pragma omp parallel num_threads(parts) if (parts > 1)
     {
-      // P into the first n columns of the n data rows; zero padding after.
+      // Rows: P into the first n columns of the batch's data rows, zero
+      // padding after, then their real transforms.  The batch also clears its
+      // share of the spectrum's padding rows (overwritten by the previous
+      // inverse transform).
 #pragma omp for schedule(static)
-      for (std::size_t j = 0; j < un; ++j) {
-        std::copy_n(p + j * un, un, r + j * um);
-        std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
-      }
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) fftw_execute(rows_forward[c].get());
-      // The padding rows of the spectrum (overwritten by the previous inverse).
-#pragma omp for schedule(static)
-      for (std::size_t ky = un; ky < um; ++ky)
-        std::memset(static_cast<void*>(s + ky * umc), 0, sizeof(fftw_complex) * umc);
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) fftw_execute(cols_forward[c].get());
-
-#pragma omp for schedule(static)
-      for (std::size_t ky = 0; ky < um; ++ky) {
-        const double* k = kh + std::min(ky, um - ky) * umc;  // even in ky
-        fftw_complex* row = s + ky * umc;
-        for (std::size_t kx = 0; kx < umc; ++kx) {
-          row[kx][0] *= k[kx];
-          row[kx][1] *= k[kx];
+      for (int c = 0; c < parts; ++c) {
+        const Share rows = share(n, parts, c);
+        for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j) {
+          std::copy_n(p + j * un, un, r + j * um);
+          std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
         }
+        const Share padding = share(m - n, parts, c);
+        std::memset(static_cast<void*>(s + (un + padding.begin) * umc), 0,
+                    sizeof(fftw_complex) * umc * (padding.end - padding.begin));
+        fftw_execute(rows_forward[c].get());
       }
-
+      // Columns: forward transform, product with the kernel transform (even
+      // in ky), inverse transform.
 #pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) fftw_execute(cols_backward[c].get());
+      for (int c = 0; c < parts; ++c) {
+        fftw_execute(cols_forward[c].get());
+        const Share cols = share(mc, parts, c);
+        for (std::size_t ky = 0; ky < um; ++ky) {
+          const double* k = kh + std::min(ky, um - ky) * umc;
+          fftw_complex* row = s + ky * umc;
+          for (auto kx = static_cast<std::size_t>(cols.begin); kx < static_cast<std::size_t>(cols.end); ++kx) {
+            row[kx][0] *= k[kx];
+            row[kx][1] *= k[kx];
+          }
+        }
+        fftw_execute(cols_backward[c].get());
+      }
+      // Rows: inverse real transforms, W out of the first n columns.
 #pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) fftw_execute(rows_backward[c].get());
-#pragma omp for schedule(static)
-      for (std::size_t j = 0; j < un; ++j) std::copy_n(r + j * um, un, w + j * un);
+      for (int c = 0; c < parts; ++c) {
+        fftw_execute(rows_backward[c].get());
+        const Share rows = share(n, parts, c);
+        for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j)
+          std::copy_n(r + j * um, un, w + j * un);
+      }
     }
   }
 };

@@ -20,12 +20,17 @@ class BandMatrix {
   void clear() { std::fill(band_.begin(), band_.end(), 0.0); }
 
   /// Solves A x = rhs by banded Gaussian elimination (destroys A); rhs becomes x.
+  /// The reciprocal of each pivot is taken once, during the elimination: the
+  /// back substitution is a chain of dependent steps, and a division in it
+  /// costs several times a multiplication.
   void solve(std::vector<double>& rhs) {
+    inverse_pivot_.resize(static_cast<std::size_t>(m_));
     for (int i = 0; i < m_; ++i) {
-      const double pivot = (*this)(i, i);
+      const double inverse = 1.0 / (*this)(i, i);
+      inverse_pivot_[i] = inverse;
       const int last = std::min(m_ - 1, i + b_);
       for (int r = i + 1; r <= last; ++r) {
-        const double factor = (*this)(r, i) / pivot;
+        const double factor = (*this)(r, i) * inverse;
         if (factor == 0.0) continue;
         for (int c = i; c <= last; ++c) (*this)(r, c) -= factor * (*this)(i, c);
         rhs[r] -= factor * rhs[i];
@@ -35,13 +40,14 @@ class BandMatrix {
       double sum = rhs[i];
       const int last = std::min(m_ - 1, i + b_);
       for (int c = i + 1; c <= last; ++c) sum -= (*this)(i, c) * rhs[c];
-      rhs[i] = sum / (*this)(i, i);
+      rhs[i] = sum * inverse_pivot_[i];
     }
   }
 
  private:
   int m_, b_;
   std::vector<double> band_;
+  std::vector<double> inverse_pivot_;  ///< scratch of solve()
 };
 
 }  // namespace ehlsim::reynolds

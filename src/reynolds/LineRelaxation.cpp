@@ -88,11 +88,10 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
 
 void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
                                 std::vector<double>& rhs, std::vector<char>& is_jacobi) {
-  // Point a = 1..n-2 of the line is line_point(direction, line, a); (di, dj)
-  // steps along the line.  The kernel is symmetric, K(d, 0) = K(0, d), so the
-  // band of the elastic term is the same for both directions.
+  // Point a = 1..n-2 of the line is line_point(direction, line, a).  The
+  // kernel is symmetric, K(d, 0) = K(0, d), so the band of the elastic term is
+  // the same for both directions.
   const bool along_x = direction == LineDirection::X;
-  const int di = along_x ? 1 : 0, dj = along_x ? 0 : 1;
   const Grid2D& grid = op_.grid();
   const int n = grid.n;
   const int m = n - 2;
@@ -120,16 +119,36 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
   for (int a = 1; a < n - 1; ++a) {
     const auto [i, j] = line_point(direction, line, a);
-    cw[a - 1] = op_.face(i, j, -di, -dj) / h2;
-    ce[a - 1] = op_.face(i, j, di, dj) / h2;
-    cs[a - 1] = op_.face(i, j, -dj, -di) / h2;
-    cn[a - 1] = op_.face(i, j, dj, di) / h2;
+    const ReynoldsOperator::Faces faces = op_.faces_at(i, j);
+    cw[a - 1] = (along_x ? faces.west : faces.south) / h2;
+    ce[a - 1] = (along_x ? faces.east : faces.north) / h2;
+    cs[a - 1] = (along_x ? faces.south : faces.west) / h2;
+    cn[a - 1] = (along_x ? faces.north : faces.east) / h2;
     const double flow = cw[a - 1] + ce[a - 1] + cs[a - 1] + cn[a - 1];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
     is_jacobi[a - 1] = elastic && is_pressurized(P, i, j) &&
                        flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
-    rhs[a - 1] = f(i, j) - op_.apply_at(P, i, j);
+    rhs[a - 1] = f(i, j) - op_.apply_at(P, i, j, faces);
+  }
+
+  // Points with P = 0 whose residual would lower the pressure stay at 0 (the
+  // projection).  A line of such points only (the cavitated region, a large
+  // part of the domain in contact) has nothing to solve.
+  thread_local std::vector<double> fixed_change;
+  fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
+  bool all_fixed = true;
+  for (int a = 0; a < m; ++a) {
+    const auto [i, j] = line_point(direction, line, a + 1);
+    if (P(i, j) <= 0.0 && rhs[a] >= 0.0) {
+      fixed_change[a] = 0.0;
+    } else {
+      all_fixed = false;
+    }
+  }
+  if (all_fixed) {
+    std::fill(rhs.begin(), rhs.end(), 0.0);
+    return;
   }
 
   thread_local BandMatrix A(0, kHalfBand);
@@ -169,13 +188,8 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   // projection would undo; a few passes settle the active set.
   const double omega = settings_.omega_gauss_seidel * damping_;
   thread_local BandMatrix work(0, kHalfBand);
-  thread_local std::vector<double> residual, fixed_change;
+  thread_local std::vector<double> residual;
   residual = rhs;
-  fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
-  for (int a = 0; a < m; ++a) {
-    const auto [i, j] = line_point(direction, line, a + 1);
-    if (P(i, j) <= 0.0 && residual[a] >= 0.0) fixed_change[a] = 0.0;
-  }
   for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
     work = A;
     rhs = residual;

@@ -43,6 +43,9 @@ double ReynoldsOperator::kernel(int di, int dj) const {
 void ReynoldsOperator::update_coefficients(const Field& P) {
   if (deformation_) deformation_->apply(P, W_);
   const double inv_lambda = 1.0 / settings_.lambda_bar;
+  // The viscosity at P = 0, evaluated once: in contact much of the domain is
+  // cavitated, and the exponential is the costly part of the loop.
+  const double eta_zero = lubricant_.eta_bar(0.0);
   const std::size_t size = grid_.size();
 #pragma omp parallel for schedule(static)
   for (std::size_t k = 0; k < size; ++k) {
@@ -57,17 +60,16 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
     // A negative film (possible in early iterates) must not give an
     // anti-diffusive coefficient: the flow factor uses max(H, 0).
     const double hp = std::max(h, 0.0);
-    xi_[k] = rho * hp * hp * hp * inv_lambda / lubricant_.eta_bar(p);
+    const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
+    xi_[k] = rho * hp * hp * hp * inv_lambda / eta;
   }
 }
 
-double ReynoldsOperator::apply_at(const Field& P, int i, int j) const {
-  const double xw = face(i, j, -1, 0), xe = face(i, j, 1, 0);
-  const double xs = face(i, j, 0, -1), xn = face(i, j, 0, 1);
+double ReynoldsOperator::apply_at(const Field& P, int i, int j, const Faces& faces) const {
   const double h = grid_.h();
   const double p = P(i, j);
-  const double flow = (xe * (P(i + 1, j) - p) - xw * (p - P(i - 1, j)) + xn * (P(i, j + 1) - p) -
-                       xs * (p - P(i, j - 1))) /
+  const double flow = (faces.east * (P(i + 1, j) - p) - faces.west * (p - P(i - 1, j)) +
+                       faces.north * (P(i, j + 1) - p) - faces.south * (p - P(i, j - 1))) /
                       (h * h);
   return flow - (b0_ / dT_) * rho_(i, j) * H_(i, j);
 }
@@ -82,8 +84,9 @@ void ReynoldsOperator::apply(const Field& P, Field& N) {
 }
 
 double ReynoldsOperator::diagonal_at(int i, int j) const {
-  const double flow = (face(i, j, -1, 0) + face(i, j, 1, 0) + face(i, j, 0, -1) + face(i, j, 0, 1)) /
-                      (grid_.h() * grid_.h());
+  const Faces faces = faces_at(i, j);
+  const double flow =
+      (faces.west + faces.east + faces.south + faces.north) / (grid_.h() * grid_.h());
   return flow + (b0_ / dT_) * (rho_(i, j) * kernel(0, 0) + drho_(i, j) * H_(i, j));
 }
 

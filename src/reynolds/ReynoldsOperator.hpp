@@ -97,8 +97,20 @@ class ReynoldsOperator {
   void update_coefficients(const Field& P);
   /// N(P) at interior points (zero on the boundary); updates the coefficients.
   void apply(const Field& P, Field& N);
+  /// The four face coefficients of interior point (i, j), by compass direction
+  /// (west: i - 1, east: i + 1, south: j - 1, north: j + 1).
+  struct Faces {
+    double west, east, south, north;
+  };
+  [[nodiscard]] Faces faces_at(int i, int j) const {
+    return {face(i, j, -1, 0), face(i, j, 1, 0), face(i, j, 0, -1), face(i, j, 0, 1)};
+  }
   /// N(P)_ij at one interior point from the current (frozen) coefficients.
-  [[nodiscard]] double apply_at(const Field& P, int i, int j) const;
+  [[nodiscard]] double apply_at(const Field& P, int i, int j) const {
+    return apply_at(P, i, j, faces_at(i, j));
+  }
+  /// The same, with the point's faces_at() already at hand.
+  [[nodiscard]] double apply_at(const Field& P, int i, int j, const Faces& faces) const;
 
   // Coefficients of the last update_coefficients().
   [[nodiscard]] const Field& film() const { return H_; }
