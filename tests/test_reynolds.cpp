@@ -15,6 +15,19 @@
 namespace ehlsim::reynolds {
 namespace {
 
+/// The operator of a BDF2 step on a coarse grid in contact (Delta = -0.4):
+/// M = 100 (lambda_bar = 0.0237, model.md), Barus with alpha_bar = 10.
+ReynoldsOperator contact_operator(const Grid2D& grid) {
+  Lubricant lubricant;
+  lubricant.alpha_bar = 10.0;
+  OperatorSettings settings;
+  settings.lambda_bar = 0.0237;
+  ReynoldsOperator op(grid, lubricant, settings);
+  op.set_time_step(grid.h(), 1.5);
+  op.set_delta(-0.4);
+  return op;
+}
+
 Field transposed(const Field& a, const Grid2D& grid) {
   Field t(grid);
   for (int j = 0; j < grid.n; ++j)
@@ -29,13 +42,7 @@ Field transposed(const Field& a, const Grid2D& grid) {
 // of points and a cavitated rim makes every part of the sweep count.
 TEST(LineRelaxation, YLinesAreXLinesOfTheTransposedProblem) {
   const Grid2D grid(33, 1.5);
-  Lubricant lubricant;
-  lubricant.alpha_bar = 10.0;
-  OperatorSettings settings;
-  settings.lambda_bar = 0.0237;  // M = 100 (model.md)
-  ReynoldsOperator op(grid, lubricant, settings);
-  op.set_time_step(grid.h(), 1.5);
-  op.set_delta(-0.4);
+  ReynoldsOperator op = contact_operator(grid);
   RelaxationSettings relax;
   relax.switch_ratio = 0.3;  // both kinds of points on this coarse grid
   LineRelaxation smoother(op, relax);
@@ -103,13 +110,7 @@ TEST(BandMatrix, SolvesPentadiagonalSystemsToRoundOff) {
 // region are where that shortcut must not reach.
 TEST(LineRelaxation, LeavesTheCavitatedRegionAtZero) {
   const Grid2D grid(33, 1.5);
-  Lubricant lubricant;
-  lubricant.alpha_bar = 10.0;
-  OperatorSettings settings;
-  settings.lambda_bar = 0.0237;
-  ReynoldsOperator op(grid, lubricant, settings);
-  op.set_time_step(grid.h(), 1.5);
-  op.set_delta(-0.4);
+  ReynoldsOperator op = contact_operator(grid);
   LineRelaxation smoother(op, RelaxationSettings{});
   // A Hertz-like pressure on R < 0.6; the right-hand side of an opening gap
   // (f > N(0) away from the contact: the equation asks for negative pressure).
