@@ -112,10 +112,14 @@ int padded_period(int lower) {
   }
 }
 
-/// Grids with fewer points per side than this transform on one thread: the
+/// Grids with fewer points per side than this transform in one batch: the
 /// cost of sharing out the work exceeds the transform (measured: 65^2 takes
 /// about 0.1 ms).
-constexpr int kMinPointsForThreads = 129;
+constexpr int kMinPointsForBatches = 129;
+/// The transforms of larger grids are cut into this many batches, whatever the
+/// number of threads: the arithmetic, and with it every bit of the result,
+/// then does not depend on how many threads share the batches.
+constexpr int kBatches = 8;
 
 /// The half-open range [begin, end) of part `c` of `parts` equal shares of `count`.
 struct Share {
@@ -146,7 +150,7 @@ struct FftDeformation::Impl {
       : n(K.n()),
         m(padded_period(2 * (K.n() - 1))),
         mc(m / 2 + 1),
-        parts(K.n() >= kMinPointsForThreads ? std::max(1, omp_get_max_threads()) : 1),
+        parts(K.n() >= kMinPointsForBatches ? kBatches : 1),
         real(fftw_buffer<double>(static_cast<std::size_t>(n) * m)),
         spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * mc)),
         kernel_hat(fftw_buffer<double>(static_cast<std::size_t>(mc) * mc)) {
@@ -208,7 +212,7 @@ struct FftDeformation::Impl {
     // Within a stage a batch's steps touch only its own rows or columns, so
     // they need no barrier between them.  (Fewer barriers, less waiting: in
     // a default run, libgomp's waiting at barriers took 13 % of the samples.)
-#pragma omp parallel num_threads(parts) if (parts > 1)
+#pragma omp parallel if (parts > 1)
     {
       // Rows: P into the first n columns of the batch's data rows, zero
       // padding after, then their real transforms.  The batch also clears its
@@ -267,7 +271,7 @@ void FftDeformation::apply(const Field& P, Field& W) {
 int FftDeformation::padded_size() const { return impl_->m; }
 
 std::unique_ptr<DeformationOperator> make_deformation(const Grid2D& grid, bool use_fft) {
-  if (use_fft) return std::make_unique<FftDeformation>(grid, FftPlanning::Measure);
+  if (use_fft) return std::make_unique<FftDeformation>(grid, FftPlanning::Estimate);
   return std::make_unique<DirectDeformation>(grid);
 }
 
