@@ -49,6 +49,13 @@ void BM_FftDeformationEstimate(benchmark::State& state) {
   run(state, op, g);
 }
 
+// The quadrant of a problem even in X and Y (the argument is the full grid's n).
+void BM_MirroredFftDeformation(benchmark::State& state) {
+  const Grid2D g = Grid2D(static_cast<int>(state.range(0)), kHalfWidth).quadrant();
+  FftDeformation op(g, FftPlanning::Estimate);
+  run(state, op, g);
+}
+
 void BM_DirectDeformation(benchmark::State& state) {
   const Grid2D g(static_cast<int>(state.range(0)), kHalfWidth);
   DirectDeformation op(g);
@@ -67,6 +74,7 @@ void BM_FftDeformationSetup(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_FftDeformation)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FftDeformationEstimate)->Arg(257)->Arg(1025)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FftDeformationEstimate)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MirroredFftDeformation)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DirectDeformation)->Arg(33)->Arg(65)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FftDeformationSetup)->Arg(257)->Arg(1025)->Unit(benchmark::kMillisecond);

@@ -195,32 +195,88 @@ TEST_P(FftVsDirect, RandomPressure) {
 
 // Powers of two plus one, and n = 21 (m = 40) and 23 (2n-2 = 44 = 4 * 11 is not
 // 7-smooth: m = 48 > 2n - 1, the padding is then strictly larger).
-// 129: from this size on the transforms are cut into one batch per OpenMP thread (a single
-// batch under ctest, which runs one thread; BatchesOnAnyNumberOfThreads sets 2 and 3).
+// 129: from this size on the transforms are cut into batches that the threads share.
 INSTANTIATE_TEST_SUITE_P(Sizes, FftVsDirect, ::testing::Values(17, 21, 23, 33, 65, 129));
 
-TEST(FftVsDirect, BatchesOnAnyNumberOfThreads) {
-  // From 129^2 on, the transforms run in one batch per OpenMP thread of the
-  // team the FftDeformation was made under (ctest runs with one thread, so the
-  // batches are set up here explicitly); uneven shares included (3 threads).
-  const Grid2D g(129, kHalfWidth);
-  std::mt19937 rng(2022);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  Field P(g);
-  for (std::size_t k = 0; k < P.size(); ++k) P[k] = uniform(rng);
-  DirectDeformation direct(g);
-  Field Wd;
-  direct.apply(P, Wd);
-  const int threads_before = omp_get_max_threads();
-  for (const int threads : {2, 3}) {
-    omp_set_num_threads(threads);
-    FftDeformation fft(g, FftPlanning::Estimate);
-    Field Wf;
-    fft.apply(P, Wf);
-    EXPECT_LT(max_diff(Wf, Wd) / max_abs(Wd), 1e-12) << threads << " threads";
+TEST(FftVsDirect, SameBitsOnAnyNumberOfThreads) {
+  // From 129^2 on the transforms run in a fixed number of batches, shared by
+  // the threads of the team: 1, 2 and 3 threads (uneven shares) must give
+  // the same bits, full and mirrored grid alike, and agree with the direct sum.
+  for (const bool mirrored : {false, true}) {
+    const Grid2D g(129, kHalfWidth, mirrored);
+    std::mt19937 rng(2022);
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    Field P(g);
+    for (std::size_t k = 0; k < P.size(); ++k) P[k] = uniform(rng);
+    Field Wd;
+    if (!mirrored) {
+      DirectDeformation direct(g);
+      direct.apply(P, Wd);
+    }
+    const int threads_before = omp_get_max_threads();
+    Field W1;
+    for (const int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      FftDeformation fft(g, FftPlanning::Estimate);
+      Field Wf;
+      fft.apply(P, Wf);
+      if (threads == 1) W1 = Wf;
+      EXPECT_EQ(max_diff(Wf, W1), 0.0) << threads << " threads, mirrored " << mirrored;
+      if (!mirrored) {
+        EXPECT_LT(max_diff(Wf, Wd) / max_abs(Wd), 1e-12) << threads << " threads";
+      }
+    }
+    omp_set_num_threads(threads_before);
   }
-  omp_set_num_threads(threads_before);
 }
+
+// ------------------------------------------------------- mirrored (quadrant) grids
+
+class MirroredDeformation : public ::testing::TestWithParam<int> {};
+
+TEST_P(MirroredDeformation, EqualsTheFullGridOfTheUnfoldedPressure) {
+  // A pressure even in X and Y on the full grid of n points, and its quadrant:
+  // the quadrant's deformation (direct sum over the images, and the DCT-I
+  // transform) equals the quadrant of the full grid's direct sum to rounding.
+  const Grid2D full(GetParam(), kHalfWidth);
+  const Grid2D quadrant = full.quadrant();
+  ASSERT_EQ(quadrant.full().n, full.n);
+  ASSERT_DOUBLE_EQ(quadrant.h(), full.h());
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Field Pq(quadrant);
+  for (std::size_t k = 0; k < Pq.size(); ++k) Pq[k] = uniform(rng);
+  const Field P = unfold(Pq, quadrant);
+  Field W;
+  DirectDeformation(full).apply(P, W);
+  const Field expected = fold(W, quadrant);
+  Field Wd, Wf;
+  DirectDeformation(quadrant).apply(Pq, Wd);
+  FftDeformation fft(quadrant);
+  EXPECT_EQ(fft.padded_size(), FftDeformation(full).padded_size());
+  fft.apply(Pq, Wf);
+  EXPECT_LT(max_diff(Wd, expected) / max_abs(expected), 1e-13);
+  EXPECT_LT(max_diff(Wf, expected) / max_abs(expected), 1e-12);
+  // A second evaluation must not see the first one's leftovers.
+  Pq.fill(0.0);
+  Pq(0, 0) = 1.0;
+  fft.apply(Pq, Wf);
+  EXPECT_NEAR(Wf(0, 0), fft.kernel()(0, 0), 1e-14);
+  EXPECT_NEAR(Wf(3, 2), fft.kernel()(3, 2), 1e-14);
+}
+
+TEST(MirroredDeformation, HertzPressureGivesTheAnalyticDeformation) {
+  // model.md: W = 1 - r^2/2 inside the unit Hertz contact.
+  const Grid2D quadrant = Grid2D(201, kHalfWidth).quadrant();
+  const Field P = sample(quadrant, hertz_pressure);
+  Field W;
+  FftDeformation(quadrant).apply(P, W);
+  EXPECT_NEAR(W(0, 0), hertz_deformation(0.0), 1e-4);
+  const int i = 100;  // X = 1.5
+  EXPECT_NEAR(W(i, 0), hertz_deformation(quadrant.x(i)), 1e-4);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, MirroredDeformation, ::testing::Values(9, 17, 33, 65, 129));
 
 TEST(Deformation, PointLoadGivesKernelIncludingLargestOffset) {
   // A unit load at a corner: W(i, j) = K(i, j) exactly.  W at the opposite

@@ -8,6 +8,8 @@
 #include <memory>
 #include <mutex>
 #include <new>
+#include <numbers>
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -23,8 +25,38 @@ void DeformationOperator::prepare(const Field& P, Field& W) const {
 // ---------------------------------------------------------------------------
 // Direct sum
 
+namespace {
+/// The direct sum on a mirrored grid: each quadrant point (k, l) stands for
+/// its images (+-k, +-l) of the full grid, and the kernel table covers the
+/// full grid's offsets.
+void direct_sum_mirrored(const KernelTable& K, const Field& P, Field& W) {
+  const int n = P.n();
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      double w = 0.0;
+      for (int l = 0; l < n; ++l) {
+        for (int k = 0; k < n; ++k) {
+          const double p = P(k, l);
+          if (p == 0.0) continue;
+          double kernel = K(i - k, j - l);
+          if (k > 0) kernel += K(i + k, j - l);
+          if (l > 0) kernel += K(i - k, j + l);
+          if (k > 0 && l > 0) kernel += K(i + k, j + l);
+          w += kernel * p;
+        }
+      }
+      W(i, j) = w;
+    }
+  }
+}
+}  // namespace
+
 void DirectDeformation::apply(const Field& P, Field& W) {
   prepare(P, W);
+  if (grid().mirrored) {
+    direct_sum_mirrored(kernel(), P, W);
+    return;
+  }
   const int n = grid().n;
   const double* K = kernel().data();
   const double* p = P.data();
@@ -131,14 +163,60 @@ Share share(int count, int parts, int c) {
 
 }  // namespace
 
+/// The transform engine of FftDeformation: full or mirrored grid.
 struct FftDeformation::Impl {
+  Impl() = default;
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+  Impl(Impl&&) = delete;
+  Impl& operator=(Impl&&) = delete;
+  virtual ~Impl() = default;
+  /// w = K * p, both on the operator's grid (n^2 points, row-major).
+  virtual void apply(const double* p, double* w) = 0;
+  int m = 0;  ///< the padded period per side (of the full grid)
+};
+
+namespace {
+
+/// The transform of the padded periodic kernel, real because the kernel is
+/// even: the 2-D DCT-I (REDFT00) of K(a, b), a, b = 0..m/2 (zero beyond the
+/// table), (m/2 + 1)^2 values, with the 1/m^2 of the unnormalised inverse
+/// transform folded in.
+FftwBuffer<double> kernel_spectrum(const KernelTable& K, int m) {
+  const int mc = m / 2 + 1;
+  const int n = K.n();
+  auto spectrum = fftw_buffer<double>(static_cast<std::size_t>(mc) * mc);
+  double* kh = spectrum.get();
+  for (int b = 0; b < mc; ++b)
+    for (int a = 0; a < mc; ++a)
+      kh[static_cast<std::size_t>(b) * mc + a] = (a < n && b < n) ? K(a, b) : 0.0;
+  // ESTIMATE: a one-off transform, and it leaves the filled array intact.
+  const Plan dct = make_plan(
+      [&] { return fftw_plan_r2r_2d(mc, mc, kh, kh, FFTW_REDFT00, FFTW_REDFT00, FFTW_ESTIMATE); });
+  fftw_execute(dct.get());
+  const double scale = 1.0 / (static_cast<double>(m) * m);
+  for (std::size_t k = 0; k < static_cast<std::size_t>(mc) * mc; ++k) kh[k] *= scale;
+  return spectrum;
+}
+
+unsigned planner_flags(FftPlanning planning) {
+  return planning == FftPlanning::Measure ? FFTW_MEASURE : FFTW_ESTIMATE;
+}
+
+/// Number of batches the transforms of an n-point grid are cut into.
+int batch_count(int n) { return n >= kMinPointsForBatches ? kBatches : 1; }
+
+/// The full grid: r2c transforms of the n data rows (period m), c2c
+/// transforms of the m/2 + 1 spectral columns, product with the kernel
+/// spectrum, and back.  Skipping the all-zero padding rows saves about a
+/// quarter of the work of a plain 2-D transform.
+struct FullImpl final : FftDeformation::Impl {
   int n;        // grid points per side
-  int m;        // padded period per side
   int mc;       // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
-  int parts;    // the transforms are cut into this many independent batches, one per thread
-  FftwBuffer<double> real;           // n rows of m: P in, W out
-  FftwBuffer<fftw_complex> spectrum; // m rows of mc
-  FftwBuffer<double> kernel_hat;     // mc rows of mc: real kernel transform / m^2, ky <= m/2
+  int parts;    // the transforms are cut into this many independent batches
+  FftwBuffer<double> real;            // n rows of m: P in, W out
+  FftwBuffer<fftw_complex> spectrum;  // m rows of mc
+  FftwBuffer<double> kernel_hat;      // mc rows of mc: the kernel spectrum, ky <= m/2
   // One plan per batch: rows of the real array, columns of the spectrum.  A
   // 2-D transform is a batch of 1-D transforms along each axis, so the
   // batches of one axis are independent and run on the threads of the
@@ -146,15 +224,15 @@ struct FftDeformation::Impl {
   // sizes: docs/performance.md).
   std::vector<Plan> rows_forward, cols_forward, cols_backward, rows_backward;
 
-  Impl(const KernelTable& K, FftPlanning planning)
+  FullImpl(const KernelTable& K, FftPlanning planning)
       : n(K.n()),
-        m(padded_period(2 * (K.n() - 1))),
-        mc(m / 2 + 1),
-        parts(K.n() >= kMinPointsForBatches ? kBatches : 1),
-        real(fftw_buffer<double>(static_cast<std::size_t>(n) * m)),
-        spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * mc)),
-        kernel_hat(fftw_buffer<double>(static_cast<std::size_t>(mc) * mc)) {
-    const unsigned flags = planning == FftPlanning::Measure ? FFTW_MEASURE : FFTW_ESTIMATE;
+        mc(padded_period(2 * (K.n() - 1)) / 2 + 1),
+        parts(batch_count(K.n())),
+        real(fftw_buffer<double>(static_cast<std::size_t>(n) * 2 * (mc - 1))),
+        spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(2 * (mc - 1)) * mc)),
+        kernel_hat(kernel_spectrum(K, 2 * (mc - 1))) {
+    m = 2 * (mc - 1);
+    const unsigned flags = planner_flags(planning);
     for (int c = 0; c < parts; ++c) {
       // Rows [r.begin, r.end): real transforms of length m, row stride m in, mc out.
       const Share r = share(n, parts, c);
@@ -182,24 +260,9 @@ struct FftDeformation::Impl {
                                   FFTW_BACKWARD, flags);
       }));
     }
-
-    // Kernel transform.  The periodic kernel is the even extension of
-    // K(a, b), a, b = 0..m/2 (zero for a or b >= n), so its DFT is real and
-    // equals the 2-D DCT-I (REDFT00) of that (m/2 + 1)^2 array.
-    double* kh = kernel_hat.get();
-    for (int b = 0; b < mc; ++b)
-      for (int a = 0; a < mc; ++a)
-        kh[static_cast<std::size_t>(b) * mc + a] = (a < n && b < n) ? K(a, b) : 0.0;
-    // ESTIMATE: a one-off transform, and it leaves the filled array intact.
-    const Plan dct = make_plan(
-        [&] { return fftw_plan_r2r_2d(mc, mc, kh, kh, FFTW_REDFT00, FFTW_REDFT00, FFTW_ESTIMATE); });
-    fftw_execute(dct.get());
-    // Fold the 1/m^2 of the unnormalised inverse transform into the kernel.
-    const double scale = 1.0 / (static_cast<double>(m) * m);
-    for (std::size_t k = 0; k < static_cast<std::size_t>(mc) * mc; ++k) kh[k] *= scale;
   }
 
-  void apply(const double* p, double* w) {
+  void apply(const double* p, double* w) override {
     const auto un = static_cast<std::size_t>(n);
     const auto um = static_cast<std::size_t>(m);
     const auto umc = static_cast<std::size_t>(mc);
@@ -258,8 +321,230 @@ struct FftDeformation::Impl {
   }
 };
 
+/// DCT-I (FFTW's REDFT00, unnormalised: Y_k = x_0 + (-1)^k x_M +
+/// 2 sum_{j=1}^{M-1} x_j cos(pi j k / M)) of `count` vectors of M + 1 values,
+/// x[v * dist + j * stride], in place, through one real DFT of size M per
+/// vector.  FFTW's own REDFT00 pads to a real DFT of size 2M and took 3.4
+/// times as long as a real DFT of size M (M = 256, 257 vectors).
+///
+/// With a_j = x_j + x_{M-j} (even in j) and b_j = x_j - x_{M-j} (odd), the
+/// sequence u_j = a_j + sin(pi j / M) b_j (j < M) has the DFT U_q with
+///   Re U_q = sum a_j cos(2 pi j q / M)          = Y_{2q},
+///   Im U_q = -sum b_j sin(pi j/M) sin(2 pi j q/M) = (Y_{2q+1} - Y_{2q-1}) / 2,
+/// the second from cos((2q+1)t) - cos((2q-1)t) = -2 sin t sin(2qt); the odd
+/// outputs follow from Y_1 = sum b_j cos(pi j / M) by that recurrence.
+class DctI {
+ public:
+  DctI(int M, int count, int stride, int dist, unsigned flags)
+      : M_(M),
+        count_(count),
+        stride_(stride),
+        dist_(dist),
+        vector_major_(stride == 1),
+        u_(fftw_buffer<double>(static_cast<std::size_t>(M) * count)),
+        U_(fftw_buffer<fftw_complex>(static_cast<std::size_t>(M / 2 + 1) * count)),
+        y1_(static_cast<std::size_t>(count)),
+        sin_(static_cast<std::size_t>(M)),
+        cos_(static_cast<std::size_t>(M)) {
+    for (int j = 0; j < M; ++j) {
+      const double t = std::numbers::pi * j / M;
+      sin_[j] = std::sin(t);
+      cos_[j] = std::cos(t);
+    }
+    // u and U: vector after vector when the data are (stride 1), else point
+    // after point with the vectors side by side, so the loops below run
+    // along contiguous memory in both cases.
+    const int u_stride = vector_major_ ? 1 : count, u_dist = vector_major_ ? M : 1;
+    const int U_stride = vector_major_ ? 1 : count, U_dist = vector_major_ ? M / 2 + 1 : 1;
+    plan_ = make_plan([&] {
+      return fftw_plan_many_dft_r2c(1, &M_, count, u_.get(), nullptr, u_stride, u_dist, U_.get(),
+                                    nullptr, U_stride, U_dist, flags);
+    });
+  }
+
+  void apply(double* x) {
+    if (vector_major_) {
+      apply_vector_major(x);
+    } else {
+      apply_point_major(x);
+    }
+  }
+
+ private:
+  // The same arithmetic in both layouts, in the same order for each vector:
+  // the loops differ only in which index runs along contiguous memory.
+  void apply_vector_major(double* x) {
+    const int half = M_ / 2 + 1;
+    for (int v = 0; v < count_; ++v) {
+      const double* xv = x + static_cast<std::size_t>(v) * dist_;
+      double* uv = u_.get() + static_cast<std::size_t>(v) * M_;
+      double y1 = 0.0;
+      for (int j = 0; j < M_; ++j) {
+        const double b = xv[j] - xv[M_ - j];
+        uv[j] = xv[j] + xv[M_ - j] + sin_[j] * b;
+        y1 += cos_[j] * b;
+      }
+      y1_[v] = y1;
+    }
+    fftw_execute(plan_.get());
+    for (int v = 0; v < count_; ++v) {
+      double* xv = x + static_cast<std::size_t>(v) * dist_;
+      const fftw_complex* Uv = U_.get() + static_cast<std::size_t>(v) * half;
+      for (int q = 0; q < half; ++q) xv[2 * q] = Uv[q][0];
+      xv[1] = y1_[v];
+      for (int q = 1; q < half - 1; ++q) xv[2 * q + 1] = xv[2 * q - 1] + 2.0 * Uv[q][1];
+    }
+  }
+
+  void apply_point_major(double* x) {
+    const int half = M_ / 2 + 1;
+    const auto row = [&](int j) { return x + static_cast<std::size_t>(j) * stride_; };
+    std::fill(y1_.begin(), y1_.end(), 0.0);
+    for (int j = 0; j < M_; ++j) {
+      const double* xj = row(j);
+      const double* xr = row(M_ - j);
+      double* uj = u_.get() + static_cast<std::size_t>(j) * count_;
+      const double sj = sin_[j], cj = cos_[j];
+      for (int v = 0; v < count_; ++v) {
+        const double b = xj[v] - xr[v];
+        uj[v] = xj[v] + xr[v] + sj * b;
+        y1_[v] += cj * b;
+      }
+    }
+    fftw_execute(plan_.get());
+    for (int q = 0; q < half; ++q) {
+      double* x2q = row(2 * q);
+      const fftw_complex* Uq = U_.get() + static_cast<std::size_t>(q) * count_;
+      for (int v = 0; v < count_; ++v) x2q[v] = Uq[v][0];
+    }
+    std::copy(y1_.begin(), y1_.end(), row(1));
+    for (int q = 1; q < half - 1; ++q) {
+      double* odd = row(2 * q + 1);
+      const double* before = row(2 * q - 1);
+      const fftw_complex* Uq = U_.get() + static_cast<std::size_t>(q) * count_;
+      for (int v = 0; v < count_; ++v) odd[v] = before[v] + 2.0 * Uq[v][1];
+    }
+  }
+
+  int M_, count_, stride_, dist_;
+  bool vector_major_;
+  FftwBuffer<double> u_;
+  FftwBuffer<fftw_complex> U_;
+  std::vector<double> y1_, sin_, cos_;
+  Plan plan_;
+};
+
+/// Tile edge of the blocked transposes (a 16 x 16 tile of doubles is 2 kB:
+/// both sides of it stay in the L1 cache).
+constexpr int kTransposeTile = 16;
+
+/// to[c * to_dist + r] = from[r * from_dist + c] for r < rows, c < cols.
+void transpose(const double* from, int from_dist, double* to, int to_dist, int rows, int cols) {
+  for (int r0 = 0; r0 < rows; r0 += kTransposeTile) {
+    const int r1 = std::min(rows, r0 + kTransposeTile);
+    for (int c0 = 0; c0 < cols; c0 += kTransposeTile) {
+      const int c1 = std::min(cols, c0 + kTransposeTile);
+      for (int r = r0; r < r1; ++r)
+        for (int c = c0; c < c1; ++c)
+          to[static_cast<std::size_t>(c) * to_dist + r] = from[static_cast<std::size_t>(r) * from_dist + c];
+    }
+  }
+}
+
+/// The mirrored grid (the quadrant of a pressure even in X and Y).  The
+/// even extension of the quadrant with period m (the full grid's padded
+/// period) has a real, even DFT: the DCT-I of its m/2 + 1 values per side.
+/// So W = DCT-I(Khat . DCT-I(P)) on the (m/2 + 1)^2 array, of which the
+/// quadrant holds n rows and columns of data: the row transforms of the
+/// forward and the inverse pass run on those n rows only.  The transforms
+/// along Y run on transposed strips, so that every transform reads
+/// contiguous memory.  About a quarter of the full grid's work.
+struct MirroredImpl final : FftDeformation::Impl {
+  int n;      // quadrant points per side
+  int mc;     // m/2 + 1 values per side of the even arrays
+  int parts;  // batches, as in FullImpl
+  FftwBuffer<double> rows_data;     // n rows of mc: the transforms along X
+  FftwBuffer<double> columns_data;  // mc rows of mc: the transforms along Y, transposed
+  FftwBuffer<double> kernel_hat;    // mc rows of mc (symmetric: K(a, b) = K(b, a))
+  std::vector<DctI> rows, columns;  // one per batch
+
+  MirroredImpl(const KernelTable& K, FftPlanning planning)
+      : n((K.n() + 1) / 2),
+        mc(padded_period(2 * (K.n() - 1)) / 2 + 1),
+        parts(batch_count(K.n())),
+        rows_data(fftw_buffer<double>(static_cast<std::size_t>(n) * mc)),
+        columns_data(fftw_buffer<double>(static_cast<std::size_t>(mc) * mc)),
+        kernel_hat(kernel_spectrum(K, 2 * (mc - 1))) {
+    m = 2 * (mc - 1);
+    const unsigned flags = planner_flags(planning);
+    rows.reserve(static_cast<std::size_t>(parts));
+    columns.reserve(static_cast<std::size_t>(parts));
+    for (int c = 0; c < parts; ++c) {
+      const Share r = share(n, parts, c), k = share(mc, parts, c);
+      rows.emplace_back(mc - 1, r.end - r.begin, 1, mc, flags);
+      columns.emplace_back(mc - 1, k.end - k.begin, 1, mc, flags);
+    }
+  }
+
+  void apply(const double* p, double* w) override {
+    const auto un = static_cast<std::size_t>(n);
+    const auto umc = static_cast<std::size_t>(mc);
+    double* d = rows_data.get();
+    double* t = columns_data.get();
+    const double* kh = kernel_hat.get();
+    // Three stages with a barrier between them, as in FullImpl.
+#pragma omp parallel if (parts > 1)
+    {
+      // Along X: P into the first n values of each row, zeros after.
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) {
+        const Share r = share(n, parts, c);
+        for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j) {
+          std::copy_n(p + j * un, un, d + j * umc);
+          std::fill(d + j * umc + un, d + (j + 1) * umc, 0.0);
+        }
+        rows[c].apply(d + r.begin * umc);
+      }
+      // Along Y, on the batch's columns kx: transposed into rows of t (zero
+      // beyond the n data values), transform, product with the kernel
+      // spectrum, inverse transform (DCT-I is its own inverse up to the
+      // scale), and the first n values transposed back.
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) {
+        const Share k = share(mc, parts, c);
+        double* strip = t + k.begin * umc;
+        const int cols = k.end - k.begin;
+        transpose(d + k.begin, mc, strip, mc, n, cols);
+        for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx)
+          std::fill(strip + kx * umc + un, strip + (kx + 1) * umc, 0.0);
+        columns[c].apply(strip);
+        for (std::size_t k_ = 0; k_ < static_cast<std::size_t>(cols) * umc; ++k_)
+          strip[k_] *= kh[k.begin * umc + k_];
+        columns[c].apply(strip);
+        transpose(strip, mc, d + k.begin, mc, cols, n);
+      }
+      // Along X: the inverse transforms, W out of the first n values.
+#pragma omp for schedule(static)
+      for (int c = 0; c < parts; ++c) {
+        const Share r = share(n, parts, c);
+        rows[c].apply(d + r.begin * umc);
+        for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j)
+          std::copy_n(d + j * umc, un, w + j * un);
+      }
+    }
+  }
+};
+
+}  // namespace
+
 FftDeformation::FftDeformation(const Grid2D& grid, FftPlanning planning)
-    : DeformationOperator(grid), impl_(std::make_unique<Impl>(kernel(), planning)) {}
+    : DeformationOperator(grid) {
+  if (grid.mirrored) {
+    impl_ = std::make_unique<MirroredImpl>(kernel(), planning);
+  } else {
+    impl_ = std::make_unique<FullImpl>(kernel(), planning);
+  }
+}
 
 FftDeformation::~FftDeformation() = default;
 

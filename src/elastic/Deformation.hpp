@@ -32,7 +32,7 @@ class DeformationOperator {
   [[nodiscard]] const Grid2D& grid() const { return grid_; }
 
  protected:
-  explicit DeformationOperator(const Grid2D& grid) : grid_(grid), kernel_(grid) {}
+  explicit DeformationOperator(const Grid2D& grid) : grid_(grid), kernel_(grid.full()) {}
   /// Argument checks shared by the implementations (see apply()).
   void prepare(const Field& P, Field& W) const;
 
@@ -85,11 +85,12 @@ class FftDeformation final : public DeformationOperator {
   ~FftDeformation() override;
   void apply(const Field& P, Field& W) override;
 
-  /// The padded transform size m per side.
+  /// The padded transform size m per side (of the full grid, on a mirrored one).
   [[nodiscard]] int padded_size() const;
 
+  struct Impl;  ///< the transform engine (full or mirrored grid): opaque
+
  private:
-  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -1,11 +1,22 @@
 #pragma once
-// Uniform square grid and the fields that live on it.
+// Uniform square grids and the fields that live on them.
 //
-// The domain is [-half_width, half_width]^2 with n points per side (boundary
-// points included), so the mesh size is h = 2 half_width / (n - 1).  A field is
-// stored row-major: value (i, j) at index j * n + i, i along X, j along Y.
+// A full grid covers [-half_width, half_width]^2 with n points per side
+// (boundary points included), so the mesh size is h = 2 half_width / (n - 1).
+//
+// A mirrored grid covers the quadrant [0, half_width]^2 of a problem that is
+// even in X and in Y: n points per side, point 0 on the symmetry axis,
+// h = half_width / (n - 1).  It stands for the full grid of 2n - 1 points with
+// the same mesh size (full()).  Only the far edges i = n - 1 and j = n - 1 are
+// boundary; the points on the axes are unknowns, and their neighbours across an
+// axis are the mirror images: a Field returns value (|i|, |j|) for negative
+// indices, so a stencil at i = 0 reads P(-1, j) = P(1, j) without a special
+// case.
+//
+// A field is stored row-major: value (i, j) at index j * n + i, i along X, j along Y.
 #include <algorithm>
 #include <cstddef>
+#include <cstdlib>
 #include <span>
 #include <stdexcept>
 #include <vector>
@@ -14,25 +25,39 @@ namespace ehlsim {
 
 struct Grid2D {
   int n = 0;                 ///< points per side, boundary included
-  double half_width = 0.0;   ///< the domain is [-half_width, half_width]^2
+  double half_width = 0.0;   ///< the domain is [-half_width, half_width]^2 (mirrored: [0, half_width]^2)
+  bool mirrored = false;     ///< the quadrant of a problem even in X and Y
 
   Grid2D() = default;
-  Grid2D(int points, double half) : n(points), half_width(half) {
+  Grid2D(int points, double half, bool mirror = false)
+      : n(points), half_width(half), mirrored(mirror) {
     if (points < 3) throw std::invalid_argument("Grid2D: need at least 3 points per side");
     if (!(half > 0.0)) throw std::invalid_argument("Grid2D: half_width must be positive");
   }
 
-  [[nodiscard]] double h() const { return 2.0 * half_width / (n - 1); }
-  [[nodiscard]] double x(int i) const { return -half_width + i * h(); }
+  [[nodiscard]] double h() const { return (mirrored ? 1.0 : 2.0) * half_width / (n - 1); }
+  [[nodiscard]] double x(int i) const { return (mirrored ? 0.0 : -half_width) + i * h(); }
   [[nodiscard]] double y(int j) const { return x(j); }
   [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(n) * n; }
   [[nodiscard]] std::size_t index(int i, int j) const {
     return static_cast<std::size_t>(j) * n + i;
   }
+  /// The first interior index along each axis: 0 on a mirrored grid (the
+  /// axis), 1 on a full grid.  The last one is n - 2 on both.
+  [[nodiscard]] int first_interior() const { return mirrored ? 0 : 1; }
+  /// How many points of the full grid the point with index i stands for
+  /// along one axis: 2 off the axis of a mirrored grid (i and -i), else 1.
+  [[nodiscard]] double multiplicity(int i) const { return mirrored && i > 0 ? 2.0 : 1.0; }
+  /// Interior points per side of the full grid this grid stands for.
+  [[nodiscard]] int full_interior() const { return (mirrored ? 2 * n - 1 : n) - 2; }
+  /// The full grid this grid stands for (itself when not mirrored).
+  [[nodiscard]] Grid2D full() const { return mirrored ? Grid2D(2 * n - 1, half_width) : *this; }
+  /// The mirrored quadrant of a full grid with an odd number of points.
+  [[nodiscard]] Grid2D quadrant() const { return Grid2D((n - 1) / 2 + 1, half_width, true); }
   /// True when the grid can be coarsened once more by standard coarsening.
   [[nodiscard]] bool coarsenable() const { return n >= 5 && (n - 1) % 2 == 0; }
   /// The grid with every second point (same domain, twice the mesh size).
-  [[nodiscard]] Grid2D coarser() const { return Grid2D((n - 1) / 2 + 1, half_width); }
+  [[nodiscard]] Grid2D coarser() const { return Grid2D((n - 1) / 2 + 1, half_width, mirrored); }
 };
 
 /// True for n = 2^k + 1 with k >= 2.
@@ -42,17 +67,21 @@ struct Grid2D {
   return (m & (m - 1)) == 0;
 }
 
-/// A scalar field on a Grid2D (row-major, j * n + i).
+/// A scalar field on a Grid2D (row-major, j * n + i).  Negative indices read
+/// and write the mirror image (|i|, |j|): on a mirrored grid that is the value
+/// across the symmetry axis; a full grid never uses them.
 class Field {
  public:
   Field() = default;
   explicit Field(const Grid2D& grid, double value = 0.0)
-      : n_(grid.n), data_(grid.size(), value) {}
+      : n_(grid.n), first_(grid.first_interior()), data_(grid.size(), value) {}
 
   [[nodiscard]] int n() const { return n_; }
+  /// Grid2D::first_interior() of the grid the field was made on.
+  [[nodiscard]] int first_interior() const { return first_; }
   [[nodiscard]] std::size_t size() const { return data_.size(); }
-  double& operator()(int i, int j) { return data_[static_cast<std::size_t>(j) * n_ + i]; }
-  double operator()(int i, int j) const { return data_[static_cast<std::size_t>(j) * n_ + i]; }
+  double& operator()(int i, int j) { return data_[at(i, j)]; }
+  double operator()(int i, int j) const { return data_[at(i, j)]; }
   double& operator[](std::size_t k) { return data_[k]; }
   double operator[](std::size_t k) const { return data_[k]; }
   [[nodiscard]] double* data() { return data_.data(); }
@@ -62,8 +91,36 @@ class Field {
   void fill(double value) { std::fill(data_.begin(), data_.end(), value); }
 
  private:
+  [[nodiscard]] std::size_t at(int i, int j) const {
+    return static_cast<std::size_t>(std::abs(j)) * n_ + static_cast<std::size_t>(std::abs(i));
+  }
+
   int n_ = 0;
+  int first_ = 1;
   std::vector<double> data_;
 };
+
+/// The full-grid field of a field on a mirrored grid (P(-i, j) = P(i, j) ...);
+/// a copy of `f` when the grid is full.
+[[nodiscard]] inline Field unfold(const Field& f, const Grid2D& grid) {
+  if (!grid.mirrored) return f;
+  const Grid2D full = grid.full();
+  const int c = grid.n - 1;  // the full grid's centre index
+  Field out(full);
+  for (int j = 0; j < full.n; ++j)
+    for (int i = 0; i < full.n; ++i) out(i, j) = f(i - c, j - c);
+  return out;
+}
+
+/// The quadrant of a full-grid field on the mirrored grid `grid` (a copy when
+/// the grid is full).  `f` must have grid.full().n points per side.
+[[nodiscard]] inline Field fold(const Field& f, const Grid2D& grid) {
+  if (!grid.mirrored) return f;
+  const int c = grid.n - 1;
+  Field out(grid);
+  for (int j = 0; j < grid.n; ++j)
+    for (int i = 0; i < grid.n; ++i) out(i, j) = f(i + c, j + c);
+  return out;
+}
 
 }  // namespace ehlsim
