@@ -89,6 +89,9 @@ struct ImpactConfig {
   DeformationMethod deformation = DeformationMethod::Fft;
   reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
   FaceMean face_mean = FaceMean::Arithmetic;
+  /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
+  /// (solver.symmetry = auto); false: always the full domain.
+  bool use_symmetry = true;
 
   // [output]
   int snapshot_every = 20;

@@ -31,6 +31,33 @@ constexpr double kDivergenceFactor = 1e3;
 constexpr int kMaxRetries = 2;
 constexpr double kRetryDamping = 0.5;
 
+/// True when the case is even in X and Y, so that its solution is the mirror
+/// image of the one on the quadrant X, Y >= 0: the undeformed gap is even
+/// when the waviness is absent or runs along an axis (angle a multiple of 90
+/// degrees).
+bool is_mirror_symmetric(const ImpactConfig& c) {
+  if (!c.use_symmetry) return false;
+  if (c.waviness_amplitude == 0.0) return true;
+  const double quarter_turns = c.waviness_angle_deg / 90.0;
+  return quarter_turns == std::round(quarter_turns);
+}
+
+/// The grid the solver works on: the quadrant of the case's grid when the
+/// case is even in X and Y, else the case's grid itself.
+Grid2D solver_grid(const ImpactConfig& c) {
+  const Grid2D full(c.grid_points, c.half_width);
+  return is_mirror_symmetric(c) ? full.quadrant() : full;
+}
+
+/// f(i, j) = value(i, j) at the interior points, 0 on the boundary.
+template <class Value>
+void fill_interior(Field& f, const Grid2D& grid, Value&& value) {
+  f.fill(0.0);
+  const int first = grid.first_interior();
+  for (int j = first; j < grid.n - 1; ++j)
+    for (int i = first; i < grid.n - 1; ++i) f(i, j) = value(i, j);
+}
+
 Lubricant make_lubricant(const ImpactConfig& c) {
   Lubricant lub;
   lub.viscosity = c.viscosity;
@@ -61,6 +88,9 @@ struct ImpactProblem::Impl {
   /// when max_cycles ended above the tolerance.  Throws on divergence.
   bool iterate_time_step(int step, const BallState& ball);
   StepRecord make_record(int step, const BallState& ball, double force) const;
+  /// Hands the step to the observer, with the fields on the full grid.
+  void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
+                   bool snapshot) const;
 
   ImpactConfig cfg;
   Grid2D grid;
@@ -85,7 +115,7 @@ struct ImpactProblem::Impl {
 
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
     : cfg(config),
-      grid(config.grid_points, config.half_width),
+      grid(solver_grid(config)),
       dT(config.dT > 0.0 ? config.dT : grid.h()),
       newmark(dT),
       rhoH_now(grid),
@@ -109,7 +139,7 @@ void ImpactProblem::Impl::setup_hierarchy() {
   while (true) {
     levels.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, relax));
     raw.push_back(levels.back().get());
-    if (g.n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
+    if (g.full().n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
     g = g.coarser();
   }
   multigrid::FasSettings fas;
@@ -131,12 +161,9 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
                                             double force_guess) {
   bdf = step == 1 ? kBdf1 : kBdf2;  // BDF2 needs two earlier levels: BDF1 starts it
   set_time_coefficients(bdf.b0);
-  Field& f = solver->rhs();
-  const int n = grid.n;
-  f.fill(0.0);
-  for (int j = 1; j < n - 1; ++j)
-    for (int i = 1; i < n - 1; ++i)
-      f(i, j) = (bdf.b1 * rhoH_now(i, j) + bdf.b2 * rhoH_old(i, j)) / dT;
+  fill_interior(solver->rhs(), grid, [&](int i, int j) {
+    return (bdf.b1 * rhoH_now(i, j) + bdf.b2 * rhoH_old(i, j)) / dT;
+  });
 
   // The separation at the new time follows from the force at the new time
   // (Newmark); the coupling is weak (dDelta/dforce = beta dT^2 3/(2 pi)), so a
@@ -234,11 +261,7 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   // and with it the time integration, second order.
   set_time_coefficients(0.0);
   set_delta(cfg.Delta0);
-  Field& f = solver->rhs();
-  const int n = grid.n;
-  f.fill(0.0);
-  for (int j = 1; j < n - 1; ++j)
-    for (int i = 1; i < n - 1; ++i) f(i, j) = -cfg.V0;
+  fill_interior(solver->rhs(), grid, [&](int, int) { return -cfg.V0; });
   solver->solution().fill(0.0);
   solver->full_multigrid();
   for (int c = 1; c <= cfg.max_cycles && solver->residual_norm() >= cfg.tolerance; ++c)
@@ -273,7 +296,8 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
   const Field& P = solver->solution(0);
   const Field& H = levels.front()->op().film();
   const int n = grid.n;
-  const int c = (n - 1) / 2;
+  const int first = grid.first_interior();
+  const int c = grid.mirrored ? 0 : (n - 1) / 2;  // the centre X = Y = 0
   StepRecord r;
   r.step = step;
   r.T = ball.T;
@@ -284,8 +308,8 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
   r.p_center = P(c, c);
   r.h_min = std::numeric_limits<double>::infinity();
   r.p_max = 0.0;
-  for (int j = 1; j < n - 1; ++j) {
-    for (int i = 1; i < n - 1; ++i) {
+  for (int j = first; j < n - 1; ++j) {
+    for (int i = first; i < n - 1; ++i) {
       r.h_min = std::min(r.h_min, H(i, j));
       r.p_max = std::max(r.p_max, P(i, j));
     }
@@ -295,9 +319,19 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
   return r;
 }
 
+void ImpactProblem::Impl::report_step(ImpactObserver& observer, const StepRecord& record,
+                                      const Field& H, bool snapshot) const {
+  const Field& P = solver->solution();
+  if (!grid.mirrored) {
+    observer.on_step(record, P, H, snapshot);
+    return;
+  }
+  observer.on_step(record, unfold(P, grid), unfold(H, grid), snapshot);
+}
+
 RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
-  observer.on_start(grid);
+  observer.on_start(grid.full());
 
   BallState ball;
   double force_now = 0.0, force_before = 0.0;
@@ -312,10 +346,10 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     force_before = s.force_before;
     had_pressure = s.had_pressure;
     summary = s.summary;
-    solver->solution() = s.P;
-    P_before = s.P_before;
-    rhoH_now = s.rhoH;
-    rhoH_old = s.rhoH_before;
+    solver->solution() = fold(s.P, grid);
+    P_before = fold(s.P_before, grid);
+    rhoH_now = fold(s.rhoH, grid);
+    rhoH_old = fold(s.rhoH_before, grid);
     first_step = s.step + 1;
     restart.reset();
   } else {
@@ -355,7 +389,7 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     const bool lifted_off = had_pressure && ball.V > 0.0 && record.p_max <= 0.0;
     const bool at_end = ball.T >= cfg.T_end - 1e-9 * dT;
     const bool snapshot = step % cfg.snapshot_every == 0 || lifted_off || at_end;
-    observer.on_step(record, solver->solution(), H, snapshot);
+    report_step(observer, record, H, snapshot);
 
     summary.steps = step;
     summary.T_final = ball.T;
@@ -368,8 +402,11 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
       summary.T_min_h_center = ball.T;
     }
     if (state_sink && state_every > 0 && step % state_every == 0 && !lifted_off && !at_end) {
+      // Full-grid fields, whatever grid the solver works on: a checkpoint
+      // does not depend on solver.symmetry.
       state_sink(ImpactState{step, ball, force_now, force_before, had_pressure, summary,
-                             solver->solution(), P_before, rhoH_now, rhoH_old});
+                             unfold(solver->solution(), grid), unfold(P_before, grid),
+                             unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
     }
     if (lifted_off) {
       summary.lifted_off = true;
@@ -392,7 +429,7 @@ const ImpactConfig& ImpactProblem::config() const { return impl_->cfg; }
 void ImpactProblem::set_cycle_monitor(CycleMonitor monitor) { impl_->monitor = std::move(monitor); }
 
 void ImpactProblem::restart_from(ImpactState state) {
-  const Grid2D& grid = impl_->grid;
+  const Grid2D grid = impl_->grid.full();
   for (const Field* f : {&state.P, &state.P_before, &state.rhoH, &state.rhoH_before}) {
     if (f->n() != grid.n || f->size() != grid.size())
       throw std::invalid_argument(fmt::format(

@@ -39,10 +39,12 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
     // The mask is taken before any point changes: it is a property of u as
     // the coarse grid saw it.
     const int n = u.n();
-    for (int j = 1; j < n - 1; ++j)
-      for (int i = 1; i < n - 1; ++i) mask_(i, j) = reynolds::is_pressurized(u, i, j) ? 1.0 : 0.0;
-    for (int j = 1; j < n - 1; ++j)
-      for (int i = 1; i < n - 1; ++i)
+    const int first = u.first_interior();
+    for (int j = first; j < n - 1; ++j)
+      for (int i = first; i < n - 1; ++i)
+        mask_(i, j) = reynolds::is_pressurized(u, i, j) ? 1.0 : 0.0;
+    for (int j = first; j < n - 1; ++j)
+      for (int i = first; i < n - 1; ++i)
         if (mask_(i, j) != 0.0) u(i, j) = std::max(0.0, u(i, j) + correction(i, j));
   }
   /// Root mean square of r / |dN/dP| over the interior: the pressure change
@@ -56,9 +58,13 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
   }
 
  private:
+  /// P = 0 on the boundary: the far edges, and on a full grid the near ones
+  /// (on a mirrored grid those are the symmetry axes, which are unknowns).
   static void zero_boundary(Field& u) {
     const int n = u.n();
-    for (int k = 0; k < n; ++k) u(k, 0) = u(k, n - 1) = u(0, k) = u(n - 1, k) = 0.0;
+    for (int k = 0; k < n; ++k) u(k, n - 1) = u(n - 1, k) = 0.0;
+    if (u.first_interior() == 0) return;
+    for (int k = 0; k < n; ++k) u(k, 0) = u(0, k) = 0.0;
   }
 
   reynolds::ReynoldsOperator op_;

@@ -144,6 +144,8 @@ constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
 constexpr std::string_view kLinesAlternating = "alternating";
 constexpr std::string_view kLinesX = "x";
+constexpr std::string_view kSymmetryAuto = "auto";
+constexpr std::string_view kSymmetryOff = "off";
 
 FaceMean face_mean_from_text(std::string_view text) {
   if (text == kHarmonic) return FaceMean::Harmonic;
@@ -329,6 +331,11 @@ std::vector<ParameterSpec> build_registry() {
                      relax.alternate_directions ? kLinesAlternating : kLinesX,
                      {std::string(kLinesAlternating), std::string(kLinesX)},
                      "relaxation lines: along X and Y in turn (alternating), or along X only"));
+  r.push_back(choice("solver.symmetry", kSymmetryAuto,
+                     {std::string(kSymmetryAuto), std::string(kSymmetryOff)},
+                     "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
+                     "when the case is even in X and Y (no waviness, or waviness along an axis), "
+                     "4 times fewer points; off: always the full domain"));
   r.push_back(choice("solver.face_mean", kArithmetic,
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
@@ -945,6 +952,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.relaxation.alternate_directions =
       in.get<std::string>("solver.line_directions") == kLinesAlternating;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
+  c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                       : DeformationMethod::Fft;
 
@@ -1083,6 +1091,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"omega_jacobi", c.relaxation.omega_jacobi},
                  {"line_directions",
                   c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
+                 {"symmetry", c.use_symmetry ? kSymmetryAuto : kSymmetryOff},
                  {"face_mean", face_mean_text(c.face_mean)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},

@@ -88,11 +88,14 @@ void FasLevel::correct(Field& u, const Field& correction) {
 }
 
 double FasLevel::norm(const Field& r) {
-  const int n = r.n();
+  const Grid2D& g = grid();
+  const int n = g.n;
   double sum = 0.0;
-  for (int j = 1; j < n - 1; ++j)
-    for (int i = 1; i < n - 1; ++i) sum += r(i, j) * r(i, j);
-  return std::sqrt(sum / ((n - 2.0) * (n - 2.0)));
+  for (int j = g.first_interior(); j < n - 1; ++j)
+    for (int i = g.first_interior(); i < n - 1; ++i)
+      sum += g.multiplicity(i) * g.multiplicity(j) * r(i, j) * r(i, j);
+  const double count = g.full_interior();
+  return std::sqrt(sum / (count * count));
 }
 
 double FasSolver::residual_norm() {

@@ -15,8 +15,11 @@ void restrict_full_weighting(const Field& fine, Field& coarse) {
   const int nc = coarse.n();
   assert(fine.n() == 2 * (nc - 1) + 1);
   coarse.fill(0.0);
-  for (int J = 1; J < nc - 1; ++J) {
-    for (int I = 1; I < nc - 1; ++I) {
+  // On a mirrored grid the interior starts on the axis, where the stencil
+  // reads the mirror images across it.
+  const int first = coarse.first_interior();
+  for (int J = first; J < nc - 1; ++J) {
+    for (int I = first; I < nc - 1; ++I) {
       const int i = 2 * I, j = 2 * J;
       coarse(I, J) = (4.0 * fine(i, j) +
                       2.0 * (fine(i - 1, j) + fine(i + 1, j) + fine(i, j - 1) + fine(i, j + 1)) +
@@ -54,10 +57,11 @@ void prolong_bilinear_add(const Field& coarse, Field& fine) {
 namespace {
 // Value at the midpoint between coarse points k and k+1 of a 1D sequence of
 // length n: 4-point cubic Lagrange (-1, 9, 9, -1)/16 inside, 3-point quadratic
-// (3, 6, -1)/8 next to the ends.
+// (3, 6, -1)/8 next to the ends.  A mirrored sequence (get(-1) = get(1)) has
+// no end at k = 0.
 template <class Get>
-double midpoint_cubic(int k, int n, Get get) {
-  if (k >= 1 && k + 2 <= n - 1)
+double midpoint_cubic(int k, int n, bool mirrored, Get get) {
+  if ((k >= 1 || mirrored) && k + 2 <= n - 1)
     return (-get(k - 1) + 9.0 * get(k) + 9.0 * get(k + 1) - get(k + 2)) / 16.0;
   if (k == 0) return (3.0 * get(0) + 6.0 * get(1) - get(2)) / 8.0;
   return (3.0 * get(k + 1) + 6.0 * get(k) - get(k - 1)) / 8.0;
@@ -68,15 +72,16 @@ void prolong_cubic(const Field& coarse, Field& fine) {
   const int nc = coarse.n();
   const int nf = fine.n();
   assert(nf == 2 * (nc - 1) + 1);
+  const bool mirrored = coarse.first_interior() == 0;
   // Rows of the coarse grid first (even fine rows), then the odd rows between them.
   for (int J = 0; J < nc; ++J) {
     for (int I = 0; I < nc; ++I) fine(2 * I, 2 * J) = coarse(I, J);
     for (int I = 0; I < nc - 1; ++I)
-      fine(2 * I + 1, 2 * J) = midpoint_cubic(I, nc, [&](int k) { return coarse(k, J); });
+      fine(2 * I + 1, 2 * J) = midpoint_cubic(I, nc, mirrored, [&](int k) { return coarse(k, J); });
   }
   for (int J = 0; J < nc - 1; ++J)
     for (int i = 0; i < nf; ++i)
-      fine(i, 2 * J + 1) = midpoint_cubic(J, nc, [&](int k) { return fine(i, 2 * k); });
+      fine(i, 2 * J + 1) = midpoint_cubic(J, nc, mirrored, [&](int k) { return fine(i, 2 * k); });
 }
 
 }  // namespace ehlsim::multigrid

@@ -9,9 +9,6 @@
 namespace ehlsim::reynolds {
 
 namespace {
-/// Half-bandwidth of the line systems: the flow terms of a distributive change
-/// reach two points along the line; the elastic kernel is truncated there too.
-constexpr int kHalfBand = 2;
 /// Share of a distributive change taken from each of the four neighbours.
 constexpr double kDistribution = 0.25;
 /// Passes of the projected line solve; the active set of a line settles in
@@ -21,14 +18,36 @@ constexpr int kMaxActiveSetPasses = 4;
 struct GridPoint {
   int i, j;
 };
-/// Point a (1..n-2) of grid line `line`: (a, line) on an X line, (line, a) on a Y line.
+/// Point a (first interior..n-2) of grid line `line`: (a, line) on an X line, (line, a) on a Y line.
 GridPoint line_point(LineDirection direction, int line, int a) {
   return direction == LineDirection::X ? GridPoint{a, line} : GridPoint{line, a};
 }
 }  // namespace
 
 LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
-    : op_(op), settings_(settings), jacobi_change_(op.grid()) {}
+    : op_(op), settings_(settings), jacobi_change_(op.grid()) {
+  // Elastic kernels along a line: of a plain change at one point, and of a
+  // distributed one (-1/4 at the four neighbours).
+  for (int d = 0; d <= kHalfBand; ++d) {
+    kernel_plain_[d] = op_.kernel(d, 0);
+    kernel_distributed_[d] = op_.kernel(d, 0) - kDistribution * (op_.kernel(d - 1, 0) +
+                                                                 op_.kernel(d + 1, 0) +
+                                                                 2.0 * op_.kernel(d, 1));
+  }
+}
+
+/// The work arrays of one line (one set per thread): `count` unknowns.
+struct LineRelaxation::LineWork {
+  explicit LineWork(int count)
+      : rhs(count), cw(count), ce(count), cs(count), cn(count), fixed_change(count),
+        residual(count), is_jacobi(count), A(count, kHalfBand), work(count, kHalfBand) {}
+  std::vector<double> rhs;  ///< residual in, the line's changes out
+  std::vector<double> cw, ce, cs, cn;  ///< face coefficients / h^2: back, forward, across
+  std::vector<double> fixed_change;    ///< NaN, or the change a projected point is held to
+  std::vector<double> residual;
+  std::vector<char> is_jacobi;
+  BandMatrix A, work;
+};
 
 void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
   for (int s = 0; s < sweeps; ++s) {
@@ -38,7 +57,9 @@ void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
 }
 
 void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
-  const int n = op_.grid().n;
+  const Grid2D& grid = op_.grid();
+  const int n = grid.n;
+  const int first = grid.first_interior();
   long gs = 0, jac = 0;
   const double w = settings_.omega_jacobi * damping_;
   const double w_gs = settings_.omega_gauss_seidel * damping_;
@@ -47,25 +68,28 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   // colour, so they are relaxed in parallel; the coefficients (and with them
   // the elastic deformation) are brought up to date before each colour, so
   // each colour sees every change of the other one, through the flow and the
-  // elastic terms alike.
+  // elastic terms alike.  Colour 0 is the odd lines: on a mirrored grid, whose
+  // index 0 is the full grid's even centre line, the lines keep the colours
+  // they have on the full grid.
   for (int colour = 0; colour < 2; ++colour) {
     op_.update_coefficients(P);
     jacobi_change_.fill(0.0);
     long colour_jac = 0;
+    const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
 #pragma omp parallel reduction(+ : gs, colour_jac)
     {
-      std::vector<double> rhs(n - 2);
-      std::vector<char> is_jacobi(n - 2);
+      LineWork line_work(n - 1 - first);
 #pragma omp for schedule(static)
-      for (int line = 1 + colour; line < n - 1; line += 2) {
-        relax_line(P, f, line, direction, rhs, is_jacobi);
-        for (int a = 1; a < n - 1; ++a) {
+      for (int line = first_line; line < n - 1; line += 2) {
+        relax_line(P, f, line, direction, line_work);
+        for (int a = first; a < n - 1; ++a) {
           const auto [i, j] = line_point(direction, line, a);
-          if (is_jacobi[a - 1]) {
-            jacobi_change_(i, j) = rhs[a - 1];
+          const double change = line_work.rhs[a - first];
+          if (line_work.is_jacobi[a - first]) {
+            jacobi_change_(i, j) = change;
             ++colour_jac;
           } else {
-            P(i, j) = std::max(0.0, P(i, j) + w_gs * rhs[a - 1]);
+            P(i, j) = std::max(0.0, P(i, j) + w_gs * change);
             ++gs;
           }
         }
@@ -73,10 +97,12 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     }
     jac += colour_jac;
     if (colour_jac == 0) continue;
-    // Distributive changes: delta at the point, -delta/4 at each neighbour.
+    // Distributive changes: delta at the point, -delta/4 at each neighbour
+    // (across a symmetry axis the neighbour is the mirror image, whose change
+    // equals the point's own).
 #pragma omp parallel for schedule(static)
-    for (int j = 1; j < n - 1; ++j) {
-      for (int i = 1; i < n - 1; ++i) {
+    for (int j = first; j < n - 1; ++j) {
+      for (int i = first; i < n - 1; ++i) {
         const double change =
             d(i, j) - kDistribution * (d(i - 1, j) + d(i + 1, j) + d(i, j - 1) + d(i, j + 1));
         if (change != 0.0) P(i, j) = std::max(0.0, P(i, j) + w * change);
@@ -87,128 +113,138 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
 }
 
 void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
-                                std::vector<double>& rhs, std::vector<char>& is_jacobi) {
-  // Point a = 1..n-2 of the line is line_point(direction, line, a).  The
-  // kernel is symmetric, K(d, 0) = K(0, d), so the band of the elastic term is
-  // the same for both directions.
+                                LineWork& lw) const {
+  // Point a = first..n-2 of the line is line_point(direction, line, a), row
+  // a - first of the line system.  The kernel is symmetric, K(d, 0) = K(0, d),
+  // so the band of the elastic term is the same for both directions.
   const bool along_x = direction == LineDirection::X;
   const Grid2D& grid = op_.grid();
   const int n = grid.n;
-  const int m = n - 2;
+  const int first = grid.first_interior();
+  const int m = n - 1 - first;
   const double h2 = grid.h() * grid.h();
   const double squeeze = op_.squeeze_coefficient();
   const Field& rho = op_.density();
-  const Field& drho = op_.density_derivative();
-  const Field& H = op_.film();
   const bool elastic = op_.elastic();
   const double k00 = op_.kernel(0, 0);
 
-  // Elastic kernels along the line: plain (a change at one point) and
-  // distributed (a change with -1/4 at the four neighbours).
-  double kplain[kHalfBand + 1];
-  double kdist[kHalfBand + 1];
-  for (int d = 0; d <= kHalfBand; ++d) {
-    kplain[d] = op_.kernel(d, 0);
-    kdist[d] = op_.kernel(d, 0) -
-               kDistribution * (op_.kernel(d - 1, 0) + op_.kernel(d + 1, 0) + 2.0 * op_.kernel(d, 1));
-  }
-
-  // Face coefficients of the line, divided by h^2: backward and forward
-  // along the line (cw, ce), backward and forward across it (cs, cn).
-  thread_local std::vector<double> cw, ce, cs, cn;
-  cw.resize(m); ce.resize(m); cs.resize(m); cn.resize(m);
-  for (int a = 1; a < n - 1; ++a) {
-    const auto [i, j] = line_point(direction, line, a);
+  for (int r = 0; r < m; ++r) {
+    const auto [i, j] = line_point(direction, line, r + first);
     const ReynoldsOperator::Faces faces = op_.faces_at(i, j);
-    cw[a - 1] = (along_x ? faces.west : faces.south) / h2;
-    ce[a - 1] = (along_x ? faces.east : faces.north) / h2;
-    cs[a - 1] = (along_x ? faces.south : faces.west) / h2;
-    cn[a - 1] = (along_x ? faces.north : faces.east) / h2;
-    const double flow = cw[a - 1] + ce[a - 1] + cs[a - 1] + cn[a - 1];
+    lw.cw[r] = (along_x ? faces.west : faces.south) / h2;
+    lw.ce[r] = (along_x ? faces.east : faces.north) / h2;
+    lw.cs[r] = (along_x ? faces.south : faces.west) / h2;
+    lw.cn[r] = (along_x ? faces.north : faces.east) / h2;
+    const double flow = lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
-    is_jacobi[a - 1] = elastic && is_pressurized(P, i, j) &&
-                       flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
-    rhs[a - 1] = f(i, j) - op_.apply_at(P, i, j, faces);
+    lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) &&
+                      flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
+    lw.rhs[r] = f(i, j) - op_.apply_at(P, i, j, faces);
   }
 
   // Points with P = 0 whose residual would lower the pressure stay at 0 (the
   // projection).  A line of such points only (the cavitated region, a large
   // part of the domain in contact) has nothing to solve.
-  thread_local std::vector<double> fixed_change;
-  fixed_change.assign(m, std::numeric_limits<double>::quiet_NaN());
   bool all_fixed = true;
-  for (int a = 0; a < m; ++a) {
-    const auto [i, j] = line_point(direction, line, a + 1);
-    if (P(i, j) <= 0.0 && rhs[a] >= 0.0) {
-      fixed_change[a] = 0.0;
-    } else {
-      all_fixed = false;
-    }
+  for (int r = 0; r < m; ++r) {
+    const auto [i, j] = line_point(direction, line, r + first);
+    const bool fixed = P(i, j) <= 0.0 && lw.rhs[r] >= 0.0;
+    lw.fixed_change[r] = fixed ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+    all_fixed = all_fixed && fixed;
   }
   if (all_fixed) {
-    std::fill(rhs.begin(), rhs.end(), 0.0);
+    std::fill(lw.rhs.begin(), lw.rhs.end(), 0.0);
     return;
   }
+  assemble_line_jacobian(line, direction, lw);
+  solve_projected(P, line, direction, lw);
+}
 
-  thread_local BandMatrix A(0, kHalfBand);
-  if (A.size() != m) A = BandMatrix(m, kHalfBand);
+double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown,
+                                      double elastic_scale, double self,
+                                      const LineWork& lw) const {
+  // d N_r / d (the change of the unknown at `offset` along the line from r).
+  const int d = std::abs(offset);
+  if (!jacobi_unknown) {
+    // Change e_c.
+    double value = elastic_scale * kernel_plain_[d];
+    if (offset == 0) value += self;
+    if (offset == -1) value += lw.cw[r];
+    if (offset == 1) value += lw.ce[r];
+    return value;
+  }
+  // Change e_c - (e_{c-1} + e_{c+1} + e_{c, j-1} + e_{c, j+1}) / 4.
+  double value = elastic_scale * kernel_distributed_[d];
+  if (offset == 0)
+    value += self - kDistribution * (lw.cs[r] + lw.cn[r]) - kDistribution * (lw.cw[r] + lw.ce[r]);
+  if (offset == -1) value += lw.cw[r] - kDistribution * self;
+  if (offset == 1) value += lw.ce[r] - kDistribution * self;
+  if (offset == -2) value += -kDistribution * lw.cw[r];
+  if (offset == 2) value += -kDistribution * lw.ce[r];
+  return value;
+}
+
+void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction,
+                                            LineWork& lw) const {
+  // Row r: the derivatives of N at point p = r + first with respect to the
+  // changes of the unknowns within the band.  On a mirrored grid the unknown
+  // q stands for the full line's points q and -q, which change alike: the
+  // entries of both fold into column q (so the row on the axis couples twice
+  // to its neighbour).  The full grid's columns outside 1..n-2 are boundary
+  // points, not unknowns.
+  const Grid2D& grid = op_.grid();
+  const int n = grid.n;
+  const int first = grid.first_interior();
+  const int m = n - 1 - first;
+  const double squeeze = op_.squeeze_coefficient();
+  const Field& rho = op_.density();
+  const Field& drho = op_.density_derivative();
+  const Field& H = op_.film();
+  BandMatrix& A = lw.A;
   A.clear();
-  // Row a (point i = a + 1): derivative of N_i with respect to the change of column c.
-  for (int a = 0; a < m; ++a) {
-    const auto [i, j] = line_point(direction, line, a + 1);
+  for (int r = 0; r < m; ++r) {
+    const int p = r + first;
+    const auto [i, j] = line_point(direction, line, p);
     const double elastic_scale = -squeeze * rho(i, j);
-    // d N_a / d P at the point itself, its neighbours along the line (flow part).
-    const double self = -(cw[a] + ce[a] + cs[a] + cn[a]) - squeeze * drho(i, j) * H(i, j);
-    const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
-    for (int c = first; c <= last; ++c) {
-      const int d = std::abs(a - c);
-      double value = 0.0;
-      if (!is_jacobi[c]) {
-        // Change e_c.
-        if (c == a) value += self;
-        if (c == a - 1) value += cw[a];
-        if (c == a + 1) value += ce[a];
-        value += elastic_scale * kplain[d];
-      } else {
-        // Change e_c - (e_{c-1} + e_{c+1} + e_{c, j-1} + e_{c, j+1}) / 4.
-        if (c == a) value += self - kDistribution * (cs[a] + cn[a]) - kDistribution * (cw[a] + ce[a]);
-        if (c == a - 1) value += cw[a] - kDistribution * self;
-        if (c == a + 1) value += ce[a] - kDistribution * self;
-        if (c == a - 2) value += -kDistribution * cw[a];
-        if (c == a + 2) value += -kDistribution * ce[a];
-        value += elastic_scale * kdist[d];
-      }
-      A(a, c) = value;
+    const double self = -(lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r]) - squeeze * drho(i, j) * H(i, j);
+    for (int c = p - kHalfBand; c <= p + kHalfBand; ++c) {
+      const int q = grid.mirrored ? std::abs(c) : c;
+      if (q < first || q > n - 2) continue;
+      A(r, q - first) += jacobian_entry(r, c - p, lw.is_jacobi[q - first] != 0, elastic_scale, self, lw);
     }
   }
+}
+
+void LineRelaxation::solve_projected(const Field& P, int line, LineDirection direction,
+                                     LineWork& lw) const {
   // Projected line solve.  A Gauss-Seidel point whose new pressure would be
   // negative is fixed at P = 0 (its change becomes -P / omega) and the line is
   // solved again, so that its neighbours do not count on a change that the
   // projection would undo; a few passes settle the active set.
+  const int first = op_.grid().first_interior();
+  const int m = static_cast<int>(lw.rhs.size());
   const double omega = settings_.omega_gauss_seidel * damping_;
-  thread_local BandMatrix work(0, kHalfBand);
-  thread_local std::vector<double> residual;
-  residual = rhs;
+  lw.residual = lw.rhs;
   for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
-    work = A;
-    rhs = residual;
-    for (int a = 0; a < m; ++a) {
-      if (std::isnan(fixed_change[a])) continue;
-      const int first = std::max(0, a - kHalfBand), last = std::min(m - 1, a + kHalfBand);
-      for (int c = first; c <= last; ++c) work(a, c) = 0.0;
-      work(a, a) = 1.0;
-      rhs[a] = fixed_change[a];
-      is_jacobi[a] = 0;
+    lw.work = lw.A;
+    lw.rhs = lw.residual;
+    for (int r = 0; r < m; ++r) {
+      if (std::isnan(lw.fixed_change[r])) continue;
+      const int lo = std::max(0, r - kHalfBand), hi = std::min(m - 1, r + kHalfBand);
+      for (int c = lo; c <= hi; ++c) lw.work(r, c) = 0.0;
+      lw.work(r, r) = 1.0;
+      lw.rhs[r] = lw.fixed_change[r];
+      lw.is_jacobi[r] = 0;
     }
-    work.solve(rhs);
+    lw.work.solve(lw.rhs);
     bool changed = false;
-    for (int a = 0; a < m; ++a) {
-      if (is_jacobi[a] || !std::isnan(fixed_change[a])) continue;
-      const auto [i, j] = line_point(direction, line, a + 1);
+    for (int r = 0; r < m; ++r) {
+      if (lw.is_jacobi[r] || !std::isnan(lw.fixed_change[r])) continue;
+      const auto [i, j] = line_point(direction, line, r + first);
       const double p = P(i, j);
-      if (p + omega * rhs[a] < 0.0) {
-        fixed_change[a] = -p / omega;
+      if (p + omega * lw.rhs[r] < 0.0) {
+        lw.fixed_change[r] = -p / omega;
         changed = true;
       }
     }

@@ -18,6 +18,7 @@
 //    dominant one; these changes are collected and applied after the sweep.
 // The line system holds the exact derivatives of the flow terms and the
 // elastic kernel truncated to the band (|i - k| <= 2), for both kinds.
+#include <array>
 #include <vector>
 
 #include "grid/Grid.hpp"
@@ -68,12 +69,28 @@ class LineRelaxation {
   void set_damping(double factor) { damping_ = factor; }
 
  private:
-  /// Builds and solves the system of one line; returns the kinds and changes.
+  struct LineWork;
+  /// Builds and solves the system of one line; leaves the kinds of its points
+  /// and their changes in `work`.
   void relax_line(Field& P, const Field& f, int line, LineDirection direction,
-                  std::vector<double>& rhs, std::vector<char>& is_jacobi);
+                  LineWork& work) const;
+  /// The banded Jacobian of the line's residuals with respect to the changes.
+  void assemble_line_jacobian(int line, LineDirection direction, LineWork& work) const;
+  /// One entry of it: row r, the unknown `offset` points along the line.
+  [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown,
+                                      double elastic_scale, double self,
+                                      const LineWork& work) const;
+  /// Solves the line system with the points held at P = 0 by the projection.
+  void solve_projected(const Field& P, int line, LineDirection direction, LineWork& work) const;
+
+  /// Half-bandwidth of the line systems: the flow terms of a distributive
+  /// change reach two points along the line; the elastic kernel is truncated
+  /// there too.
+  static constexpr int kHalfBand = 2;
 
   ReynoldsOperator& op_;
   RelaxationSettings settings_;
+  std::array<double, kHalfBand + 1> kernel_plain_{}, kernel_distributed_{};
   Field jacobi_change_;
   SweepStats stats_;
   double damping_ = 1.0;

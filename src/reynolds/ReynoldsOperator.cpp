@@ -77,10 +77,11 @@ double ReynoldsOperator::apply_at(const Field& P, int i, int j, const Faces& fac
 void ReynoldsOperator::apply(const Field& P, Field& N) {
   update_coefficients(P);
   const int n = grid_.n;
+  const int first = grid_.first_interior();
   N.fill(0.0);
 #pragma omp parallel for schedule(static)
-  for (int j = 1; j < n - 1; ++j)
-    for (int i = 1; i < n - 1; ++i) N(i, j) = apply_at(P, i, j);
+  for (int j = first; j < n - 1; ++j)
+    for (int i = first; i < n - 1; ++i) N(i, j) = apply_at(P, i, j);
 }
 
 double ReynoldsOperator::diagonal_at(int i, int j) const {
@@ -91,20 +92,32 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
 }
 
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {
+  // Over the full grid's interior: on a mirrored grid each point counts as
+  // many times as it has images.
   const int n = grid_.n;
+  const int first = grid_.first_interior();
   double sum = 0.0;
-  for (int j = 1; j < n - 1; ++j) {
-    for (int i = 1; i < n - 1; ++i) {
+  for (int j = first; j < n - 1; ++j) {
+    double row = 0.0;
+    for (int i = first; i < n - 1; ++i) {
       const double scaled = r(i, j) / diagonal_at(i, j);
-      sum += scaled * scaled;
+      row += grid_.multiplicity(i) * scaled * scaled;
     }
+    sum += grid_.multiplicity(j) * row;
   }
-  return std::sqrt(sum / ((n - 2.0) * (n - 2.0)));
+  const double count = grid_.full_interior();
+  return std::sqrt(sum / (count * count));
 }
 
 double ReynoldsOperator::force(const Field& P) const {
+  // The trapezoidal rule over the full grid (P = 0 on its boundary).
+  const int n = grid_.n;
   double sum = 0.0;
-  for (std::size_t k = 0; k < P.size(); ++k) sum += P[k];
+  for (int j = 0; j < n; ++j) {
+    double row = 0.0;
+    for (int i = 0; i < n; ++i) row += grid_.multiplicity(i) * P(i, j);
+    sum += grid_.multiplicity(j) * row;
+  }
   const double h = grid_.h();
   return sum * h * h;
 }
