@@ -41,6 +41,8 @@ DEFAULT_SEED = 20240909
 POLL_SECONDS = 0.002
 # The last steps are not targets: the run must not end before the kill lands.
 SPARE_STEPS = 4
+# Runs started per kill before giving up, should they end before the kill.
+KILL_ATTEMPTS = 3
 
 
 def run(binary, directory, case, threads, extra=()):
@@ -120,21 +122,34 @@ def run_and_kill(binary, directory, target):
             process.send_signal(signal.SIGCONT)
         time.sleep(POLL_SECONDS)
     process.wait()
+    if process.returncode == 0:
+        return None  # it finished between two looks (a very busy machine)
     if process.returncode != -signal.SIGKILL or (directory / "run" / "run.json").exists():
-        sys.exit(f"the run aimed at step {target} was not killed (exit {process.returncode})")
+        sys.exit(f"the run aimed at step {target} failed (exit {process.returncode})")
     return checkpoint_step(checkpoint)
+
+
+def killed_run(binary, directory, target):
+    """run_and_kill, tried again when the run ended before the kill; returns
+    (run directory, checkpoint step)."""
+    for attempt in range(KILL_ATTEMPTS):
+        killed = directory / f"attempt{attempt}"
+        step = run_and_kill(binary, killed, target)
+        if step is not None:
+            return killed, step
+        print(f"the run aimed at step {target} finished before the kill: again")
+    sys.exit(f"the run aimed at step {target} finished before the kill {KILL_ATTEMPTS} times")
 
 
 def kill_restart(binary, work, seed):
     full = run(binary, work / "full", SMALL_CASE, 1)
     steps = rows(full)
     rng = random.Random(seed)
-    targets = [rng.randint(1, steps - SPARE_STEPS) for _ in range(KILLS)]
+    targets = rng.sample(range(1, steps - SPARE_STEPS + 1), KILLS)  # distinct steps
     print(f"seed {seed}: kill targets (steps) {targets} of {steps}")
     ok = True
     for k, target in enumerate(targets):
-        killed = work / f"killed{k}"
-        step = run_and_kill(binary, killed, target)
+        killed, step = killed_run(binary, work / f"killed{k}", target)
         restarted = run(binary, work / f"restarted{k}", SMALL_CASE, 1,
                         ["--restart", str(killed / "run" / "checkpoint.nc")])
         ok &= report(f"kill {k + 1}: aimed at step {target}, checkpoint of step {step}, "
