@@ -182,7 +182,13 @@ int run_impact(const ImpactOptions& options) {
   output.add_file("spike", SpikeOutput::kFile);
   ObserverChain observers({&spike, &output});
   ImpactProblem problem(config);
-  if (checkpoint) problem.restart_from(std::move(checkpoint->state));
+  if (checkpoint) {
+    // The outputs go on as the uninterrupted run's would (V_s of the next
+    // step, snapshot times already reached).
+    spike.resume_after(checkpoint->state.ball.T, checkpoint->state.P);
+    output.resume_after(checkpoint->state.ball.T);
+    problem.restart_from(std::move(checkpoint->state));
+  }
   if (config.checkpoint_every > 0) {
     const std::filesystem::path path = std::filesystem::path(options.out_dir) / kCheckpointFile;
     output.add_file("checkpoint", kCheckpointFile);

@@ -9,7 +9,7 @@ PACKAGES=(
   libtomlplusplus-dev     # configuration files
   libcli11-dev            # command line
   libfmt-dev              # formatting
-  libnetcdf-dev netcdf-bin  # fields.nc output (netcdf-bin: ncdump for inspection)
+  libnetcdf-dev netcdf-bin  # fields.nc output (netcdf-bin: ncdump, for inspection and the reproducibility tests)
   nlohmann-json3-dev      # run.json
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
   python3-matplotlib python3-numpy            # figures (Debian's own python3)

@@ -518,6 +518,9 @@ TEST(Echo, EffectiveParametersUseRegistryKeys) {
 // Writers
 // ---------------------------------------------------------------------------
 
+/// The time of step `step` in the spike tests.
+double spike_time(int step) { return 0.05 * step; }
+
 StepRecord record(int step, double T) {
   StepRecord r;
   r.step = step;
@@ -936,6 +939,20 @@ TEST(RunOutput, SnapshotStartDelaysThePeriodicSnapshotsOnly) {
   EXPECT_EQ(j["parameters"]["output"]["snapshot_start"].get<double>(), 0.55);
 }
 
+/// The pressure of step `step` of the spike tests: a ring of pressure moving
+/// inward on a dome.
+Field moving_ring(const Grid2D& grid, int step) {
+  const double R0 = 0.8 - 0.5 * spike_time(step);
+  Field P(grid);
+  for (int j = 0; j < grid.n; ++j) {
+    for (int i = 0; i < grid.n; ++i) {
+      const double R = std::hypot(grid.x(i), grid.y(j));
+      P(i, j) = std::max(0.0, 1.0 - R * R) + 0.5 * std::exp(-std::pow((R - R0) / 0.06, 2));
+    }
+  }
+  return P;
+}
+
 // spike.csv is written with a lag of one step (V_s needs the next step): its
 // V_s column must be what the batch finite differences give for its R_s column.
 TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
@@ -946,18 +963,8 @@ TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
   {
     SpikeOutput spike(dir.path(), config);
     spike.on_start(grid);
-    for (int step = 1; step <= steps; ++step) {
-      const double T = 0.05 * step;
-      const double R0 = 0.8 - 0.5 * T;  // a ring of pressure moving inward on a dome
-      Field P(grid);
-      for (int j = 0; j < grid.n; ++j) {
-        for (int i = 0; i < grid.n; ++i) {
-          const double R = std::hypot(grid.x(i), grid.y(j));
-          P(i, j) = std::max(0.0, 1.0 - R * R) + 0.5 * std::exp(-std::pow((R - R0) / 0.06, 2));
-        }
-      }
-      spike.on_step(record(step, T), P, Field(grid), false);
-    }
+    for (int step = 1; step <= steps; ++step)
+      spike.on_step(record(step, spike_time(step)), moving_ring(grid, step), Field(grid), false);
     EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"spike.csv.part"});
     spike.on_finish(RunSummary{});
   }
@@ -980,6 +987,51 @@ TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
     EXPECT_NEAR(V[k], expected[k], 1e-6 * std::abs(expected[k])) << k;  // 10 digits in the file
     EXPECT_LT(V[k], 0.0) << k;  // inward
   }
+}
+
+// A restart after step k (SpikeOutput::resume_after with the checkpoint's
+// pressure) writes the rows of the uninterrupted run after k, V_s included:
+// three-point differences from its first row on.
+TEST(SpikeOutput, ARestartWritesTheRowsOfTheUninterruptedRun) {
+  TempDir dir;
+  const ImpactConfig config = load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
+  const Grid2D grid(65, 1.5);
+  constexpr int kSteps = 7;
+  constexpr int kCheckpointStep = 3;
+  const auto write = [&](const fs::path& run, bool restart) {
+    SpikeOutput spike(run, config);
+    spike.on_start(grid);
+    if (restart) spike.resume_after(spike_time(kCheckpointStep), moving_ring(grid, kCheckpointStep));
+    for (int step = restart ? kCheckpointStep + 1 : 1; step <= kSteps; ++step)
+      spike.on_step(record(step, spike_time(step)), moving_ring(grid, step), Field(grid), false);
+    spike.on_finish(RunSummary{});
+    std::vector<std::string> rows;
+    std::istringstream csv(read_file(run / SpikeOutput::kFile));
+    for (std::string line; std::getline(csv, line);) rows.push_back(line);
+    return rows;
+  };
+  const std::vector<std::string> full = write(dir / "full", false);
+  const std::vector<std::string> restarted = write(dir / "restarted", true);
+  ASSERT_EQ(full.size(), kSteps + 1u);
+  // The header, then the rows after the checkpoint's step.
+  std::vector<std::string> expected{full.front()};
+  expected.insert(expected.end(), full.begin() + 1 + kCheckpointStep, full.end());
+  EXPECT_EQ(restarted, expected);
+}
+
+TEST(RunOutput, ARestartDoesNotStoreReachedSnapshotTimesAgain) {
+  TempDir dir;
+  const ImpactConfig config = load_config(
+      std::nullopt, {"grid.points=9", "solver.coarsest_points=5", "output.snapshot_every=100",
+                     "output.snapshot_times=[0.25, 0.7]", "time.dT=0.1"});
+  const Grid2D grid(9, 1.5);
+  RunOutput output(dir.path(), config, false);
+  output.on_start(grid);
+  // The checkpoint of step 5 (T = 0.5): the run before it stored T = 0.25 at step 3.
+  output.resume_after(0.5);
+  for (int step = 6; step <= 8; ++step)
+    output.on_step(record(step, 0.1 * step), Field(grid), Field(grid), false);
+  EXPECT_EQ(output.snapshots_written(), 1u);  // T = 0.7 only, at step 7
 }
 
 TEST(RunOutput, FailedRunLeavesNoFiles) {

@@ -69,6 +69,12 @@ void RunOutput::on_step(const StepRecord& record, const Field& P, const Field& H
   progress_.update(record);
 }
 
+void RunOutput::resume_after(double T) {
+  while (next_snapshot_time_ < snapshot_times_.size() &&
+         at_or_after(T, snapshot_times_[next_snapshot_time_]))
+    ++next_snapshot_time_;
+}
+
 double RunOutput::elapsed_seconds() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }

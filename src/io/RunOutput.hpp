@@ -49,6 +49,10 @@ class RunOutput final : public ImpactObserver {
   void on_start(const Grid2D& grid) override;
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
   void on_finish(const RunSummary& summary) override;
+  /// A restart from the state after the step at T: the times of
+  /// output.snapshot_times reached by then were stored by the run that wrote
+  /// the checkpoint, and are not stored again.  Before the first step.
+  void resume_after(double T);
 
   [[nodiscard]] const std::filesystem::path& directory() const { return directory_; }
   [[nodiscard]] bool committed() const { return committed_; }

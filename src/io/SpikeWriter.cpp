@@ -1,6 +1,7 @@
 #include "io/SpikeWriter.hpp"
 
 #include <optional>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -24,6 +25,12 @@ void SpikeSeriesWriter::append(const SpikeSample& next) {
     previous_ = current_;
   }
   current_ = next;
+}
+
+void SpikeSeriesWriter::resume_after(const SpikeSample& sample) {
+  if (current_ || rows() > 0)
+    throw std::logic_error("SpikeSeriesWriter::resume_after: rows were already added");
+  previous_ = sample;
 }
 
 void SpikeSeriesWriter::commit() {
@@ -51,6 +58,10 @@ SpikeOutput::SpikeOutput(const std::filesystem::path& directory, const ImpactCon
 void SpikeOutput::on_step(const StepRecord& record, const Field& P, const Field& /*H*/,
                           bool /*snapshot*/) {
   series_->append(spike_sample(record.T, analyze_spike(grid_, P.span(), settings_), dry_));
+}
+
+void SpikeOutput::resume_after(double T, const Field& P) {
+  series_->resume_after(spike_sample(T, analyze_spike(grid_, P.span(), settings_), dry_));
 }
 
 void SpikeOutput::on_finish(const RunSummary& /*summary*/) { series_->commit(); }

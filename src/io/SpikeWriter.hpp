@@ -27,6 +27,10 @@ class SpikeSeriesWriter {
   explicit SpikeSeriesWriter(const std::filesystem::path& path) : csv_(path, kHeader) {}
   /// Adds a sample (times increasing); writes the row of the one before.
   void append(const SpikeSample& sample);
+  /// Takes `sample` as the row before the first one, written by another run
+  /// (a restart): the first row's V_s is then the three-point difference the
+  /// uninterrupted run has.  Only before the first append().
+  void resume_after(const SpikeSample& sample);
   /// Writes the last row and renames the file to its final name.
   void commit();
   [[nodiscard]] std::size_t rows() const { return csv_.rows(); }
@@ -35,7 +39,7 @@ class SpikeSeriesWriter {
   void write(const SpikeSample& sample, double V_s);
 
   CsvWriter csv_;
-  std::optional<SpikeSample> previous_;  ///< written
+  std::optional<SpikeSample> previous_;  ///< written (or, on a restart, the checkpoint's)
   std::optional<SpikeSample> current_;   ///< waiting for the next sample
 };
 
@@ -61,6 +65,10 @@ class SpikeOutput final : public ImpactObserver {
   void on_start(const Grid2D& grid) override { grid_ = grid; }
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
   void on_finish(const RunSummary& summary) override;
+  /// A restart from the state after the step at T with pressure P: the
+  /// analysis of P gives V_s of the first step after it (see
+  /// SpikeSeriesWriter::resume_after).
+  void resume_after(double T, const Field& P);
 
  private:
   SpikeSettings settings_;
