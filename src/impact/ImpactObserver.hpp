@@ -20,6 +20,11 @@ struct StepRecord {
   double p_max = 0.0;
   int cycles = 0;          ///< multigrid cycles used in this step
   double residual = 0.0;   ///< final scaled residual of this step
+  int attempts = 1;        ///< 1, plus the retries of the step with more damping
+  /// Deformation evaluations of the step, all levels and attempts, in units of
+  /// one evaluation on the finest grid (a coarser level's count times its
+  /// share of the finest grid's points): the machine-independent cost.
+  double work = 0.0;
 };
 
 /// Summary of a finished run.

@@ -88,6 +88,8 @@ struct ImpactProblem::Impl {
   /// when max_cycles ended above the tolerance.  Throws on divergence.
   bool iterate_time_step(int step, const BallState& ball);
   StepRecord make_record(int step, const BallState& ball, double force) const;
+  /// Deformation evaluations of all levels so far, in finest-grid units.
+  [[nodiscard]] double work_units() const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
                    bool snapshot) const;
@@ -106,6 +108,8 @@ struct ImpactProblem::Impl {
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
   int last_cycles = 0;
+  int last_attempts = 1;  ///< attempts of the last step (1 + retries)
+  double work_at_step_start = 0.0;
   /// The run's summary so far; the solver counters (unconverged and retried
   /// steps) are kept in it by solve_time_step.
   RunSummary summary;
@@ -228,6 +232,7 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
       if (attempt == kMaxRetries && best.size() == 0) throw;
       diverged = true;
     }
+    last_attempts = attempt + 1;
     if (converged) {
       if (attempt > 0) ++summary.retried_steps;
       return fine.force(solver->solution());
@@ -316,7 +321,18 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
   }
   r.cycles = last_cycles;
   r.residual = last_residual;
+  r.attempts = last_attempts;
+  r.work = work_units() - work_at_step_start;
   return r;
+}
+
+double ImpactProblem::Impl::work_units() const {
+  const double finest = static_cast<double>(levels.front()->grid().size());
+  double work = 0.0;
+  for (const auto& level : levels)
+    work += static_cast<double>(level->op().deformation_evaluations()) *
+            static_cast<double>(level->grid().size()) / finest;
+  return work;
 }
 
 void ImpactProblem::Impl::report_step(ImpactObserver& observer, const StepRecord& record,
@@ -372,6 +388,7 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   for (int step = first_step;; ++step) {
     // Linear extrapolation of the force is the initial guess of the new separation.
     const double guess = step > 2 ? 2.0 * force_now - force_before : force_now;
+    work_at_step_start = work_units();
     const double force = solve_time_step(step, ball, guess);
     ball = newmark.advance(ball, force);
     summary.impulse += 0.5 * (force_now + force) * dT * kForceToAcceleration;

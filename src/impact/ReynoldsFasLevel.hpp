@@ -17,6 +17,7 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
       : op_(grid, lubricant, op_settings), smoother_(op_, relax_settings), mask_(grid) {}
 
   reynolds::ReynoldsOperator& op() { return op_; }
+  [[nodiscard]] const reynolds::ReynoldsOperator& op() const { return op_; }
   reynolds::LineRelaxation& smoother() { return smoother_; }
 
   [[nodiscard]] const Grid2D& grid() const override { return op_.grid(); }

@@ -13,7 +13,7 @@ class TimeSeriesWriter {
  public:
   /// The first line of the file.
   static constexpr std::string_view kHeader =
-      "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual";
+      "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual,attempts,work";
 
   /// Opens "<path>.part" and writes the header.  Throws std::runtime_error.
   explicit TimeSeriesWriter(const std::filesystem::path& path) : csv_(path, kHeader) {}

@@ -22,7 +22,8 @@ ReynoldsOperator::ReynoldsOperator(const Grid2D& grid, const Lubricant& lubrican
       H_(grid),
       rho_(grid, 1.0),
       drho_(grid),
-      xi_(grid) {
+      xi_(grid),
+      rho_over_eta_lambda_(grid) {
   if (settings_.elastic) deformation_ = make_deformation(grid_, settings_.use_fft);
   const Waviness& w = settings_.waviness;
   const double angle = w.angle_deg * std::numbers::pi / 180.0;
@@ -41,7 +42,23 @@ double ReynoldsOperator::kernel(int di, int dj) const {
 }
 
 void ReynoldsOperator::update_coefficients(const Field& P) {
-  if (deformation_) deformation_->apply(P, W_);
+  // The relaxation and the residual often ask again for the pressure of the
+  // last update (after the convergence check, the next cycle's first sweep;
+  // on a coarse grid, the FAS right-hand side and the first sweep), with at
+  // most Delta changed in between: the deformation and the rheology are then
+  // reused and only the film is recomputed.
+  if (!(pressure_terms_valid_ && std::equal(P.span().begin(), P.span().end(),
+                                            pressure_of_terms_.span().begin()))) {
+    update_pressure_terms(P);
+  }
+  update_film();
+}
+
+void ReynoldsOperator::update_pressure_terms(const Field& P) {
+  if (deformation_) {
+    deformation_->apply(P, W_);
+    ++deformation_evaluations_;
+  }
   const double inv_lambda = 1.0 / settings_.lambda_bar;
   // The viscosity at P = 0, evaluated once: in contact much of the domain is
   // cavitated, and the exponential is the costly part of the loop.
@@ -50,18 +67,28 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
 #pragma omp parallel for schedule(static)
   for (std::size_t k = 0; k < size; ++k) {
     const double p = std::max(P[k], 0.0);
-    const double h = delta_ + shape_[k] + W_[k];
     const double rho = lubricant_.rho_bar(p);
-    H_[k] = h;
     rho_[k] = rho;
     drho_[k] = lubricant_.density != DensityModel::Incompressible
                    ? (lubricant_.rho_bar(p + kDensityDerivativeStep) - rho) / kDensityDerivativeStep
                    : 0.0;
+    const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
+    rho_over_eta_lambda_[k] = rho * inv_lambda / eta;
+  }
+  pressure_of_terms_ = P;
+  pressure_terms_valid_ = true;
+}
+
+void ReynoldsOperator::update_film() {
+  const std::size_t size = grid_.size();
+#pragma omp parallel for schedule(static)
+  for (std::size_t k = 0; k < size; ++k) {
+    const double h = delta_ + shape_[k] + W_[k];
+    H_[k] = h;
     // A negative film (possible in early iterates) must not give an
     // anti-diffusive coefficient: the flow factor uses max(H, 0).
     const double hp = std::max(h, 0.0);
-    const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
-    xi_[k] = rho * hp * hp * hp * inv_lambda / eta;
+    xi_[k] = rho_over_eta_lambda_[k] * hp * hp * hp;
   }
 }
 

@@ -95,6 +95,9 @@ class ReynoldsOperator {
 
   /// Recompute deformation, film thickness, density and xi for pressure P.
   void update_coefficients(const Field& P);
+  /// Evaluations of the deformation integral so far (the costly part of an
+  /// update): the measure of the work done on this grid.
+  [[nodiscard]] long deformation_evaluations() const { return deformation_evaluations_; }
   /// N(P) at interior points (zero on the boundary); updates the coefficients.
   void apply(const Field& P, Field& N);
   /// The four face coefficients of interior point (i, j), by compass direction
@@ -138,7 +141,17 @@ class ReynoldsOperator {
   double b0_ = 1.0;
   double delta_ = 0.0;
   Field shape_;  ///< X^2/2 + Y^2/2 + waviness: the undeformed gap without Delta
+  /// The parts of an update that depend on P only (deformation, density,
+  /// rho / (eta lambda_bar)), and the P they were computed for.
+  void update_pressure_terms(const Field& P);
+  /// H and xi from the pressure terms and Delta.
+  void update_film();
+
   Field W_, H_, rho_, drho_, xi_;
+  Field rho_over_eta_lambda_;
+  Field pressure_of_terms_;
+  bool pressure_terms_valid_ = false;
+  long deformation_evaluations_ = 0;
 };
 
 }  // namespace ehlsim::reynolds
