@@ -161,7 +161,7 @@ TEST(Cli, TinyRun) {
   EXPECT_EQ(r.out, "");  // --quiet: nothing but errors
   EXPECT_EQ(r.err, "");
   const std::string csv = read_file(run / "timeseries.csv");
-  EXPECT_EQ(csv.rfind("T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual\n", 0), 0u);
+  EXPECT_EQ(csv.rfind("T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual,attempts,work\n", 0), 0u);
   EXPECT_GE(std::count(csv.begin(), csv.end(), '\n'), 3);  // header and at least 2 steps (dT = 0.09375)
   EXPECT_TRUE(fs::exists(run / "fields.nc"));
   EXPECT_TRUE(fs::exists(run / "run.json"));
