@@ -22,6 +22,8 @@
 #include <string_view>
 #include <vector>
 
+#include <omp.h>
+
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -35,6 +37,7 @@
 #include "io/RunAnalysis.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
+#include "io/ThreadBudget.hpp"
 #include "Study.hpp"
 
 namespace {
@@ -180,7 +183,12 @@ int run_impact(const ImpactOptions& options) {
   SpikeOutput spike(options.out_dir, config);
   RunOutput output(options.out_dir, config, !options.quiet, invocation);
   output.add_file("spike", SpikeOutput::kFile);
-  ObserverChain observers({&spike, &output});
+  // The thread team follows the cores that other processes leave free, unless
+  // the user fixed it with OMP_NUM_THREADS (io/ThreadBudget.hpp).
+  ThreadBudget threads(omp_get_max_threads());
+  std::vector<ImpactObserver*> chain{&spike, &output};
+  if (!user_set_thread_count()) chain.push_back(&threads);
+  ObserverChain observers(chain);
   ImpactProblem problem(config);
   if (checkpoint) {
     // The outputs go on as the uninterrupted run's would (V_s of the next

@@ -1,0 +1,94 @@
+#include "io/ThreadBudget.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+#include <string>
+
+namespace ehlsim {
+
+namespace {
+/// Seconds between two samples: reading /proc costs about 0.1 ms, and a
+/// process that starts or ends is noticed within a second.
+constexpr double kSampleSeconds = 0.2;
+/// Samples averaged for a decision (about a second): one sample catches
+/// short-lived tasks (a shell command, a compiler starting) as often as
+/// lasting ones.
+constexpr std::size_t kSamples = 5;
+
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+/// procs_running of /proc/stat, or -1.
+int machine_running() {
+  std::ifstream stat("/proc/stat");
+  std::string key;
+  while (stat >> key) {
+    if (key == "procs_running") {
+      int count = -1;
+      stat >> count;
+      return count;
+    }
+    stat.ignore(1 << 16, '\n');
+  }
+  return -1;
+}
+
+/// Threads of this process in state R (running or runnable), or -1.
+int own_running() {
+  std::error_code error;
+  int count = 0;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task", error)) {
+    std::ifstream stat(task.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    // "tid (comm) S ...": the state follows the last ')' (comm may hold spaces).
+    const auto close = line.rfind(')');
+    if (close != std::string::npos && close + 2 < line.size() && line[close + 2] == 'R') ++count;
+  }
+  return error ? -1 : count;
+}
+}  // namespace
+
+RunnableTasks read_runnable_tasks() { return {machine_running(), own_running()}; }
+
+bool user_set_thread_count() { return std::getenv("OMP_NUM_THREADS") != nullptr; }
+
+ThreadBudget::ThreadBudget(int cores, std::function<RunnableTasks()> sample,
+                           std::function<void(int)> set_threads)
+    : cores_(std::max(1, cores)),
+      threads_(std::max(1, cores)),
+      sample_(std::move(sample)),
+      set_threads_(set_threads ? std::move(set_threads) : [](int n) { omp_set_num_threads(n); }) {}
+
+void ThreadBudget::on_step(const StepRecord&, const Field&, const Field&, bool) {
+  const double now = now_seconds();
+  if (last_sample_ >= 0.0 && now - last_sample_ < kSampleSeconds) return;
+  last_sample_ = now;
+  const int before = threads_;
+  update(sample_());
+  if (threads_ != before) set_threads_(threads_);
+}
+
+int ThreadBudget::update(const RunnableTasks& sample) {
+  if (sample.machine < 0 || sample.own < 0) return threads_;  // no /proc: keep the team
+  others_.push_back(std::max(0, sample.machine - sample.own));
+  if (others_.size() > kSamples) others_.pop_front();
+  const double mean =
+      static_cast<double>(std::accumulate(others_.begin(), others_.end(), 0)) /
+      static_cast<double>(others_.size());
+  // Cores the others leave free, rounded to the nearest whole core.
+  const int free_cores = cores_ - static_cast<int>(mean + 0.5);
+  threads_ = std::clamp(free_cores, 1, cores_);
+  return threads_;
+}
+
+}  // namespace ehlsim
