@@ -195,8 +195,8 @@ TEST(Cli, RestartFromACheckpoint) {
                                                quote(checkpoint.string())),
                    "body.elastic = true, but checkpoint '" + checkpoint.string() +
                        "' was written with false (a restart continues the same case: only "
-                       "solver.*, output.*, spike.* and time.T_end may change, solver.face_mean "
-                       "excepted)");
+                       "solver.*, output.*, spike.*, time.T_end and time.max_steps may change, "
+                       "solver.face_mean excepted)");
   const fs::path not_a_checkpoint = second / "timeseries.csv";
   r = tiny_run(dir / "fourth", "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
   EXPECT_EQ(r.exit_code, 2);
