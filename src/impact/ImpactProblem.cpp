@@ -363,7 +363,9 @@ std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& 
   if (record.p_max > 0.0) run.had_pressure = true;
   const double energy = elastic_energy_now();
   run.energy = 0.5 * record.dDelta_dT * record.dDelta_dT + energy;
-  if (is_at_rest(record.dDelta_dT, energy, run.bounds)) return RunOutcome::AtRest;
+  // A run to a given time.T_end goes on to it, at rest or not.
+  const bool until_lift_off = !std::isfinite(cfg.T_end);
+  if (until_lift_off && is_at_rest(record.dDelta_dT, energy, run.bounds)) return RunOutcome::AtRest;
   if (run.had_pressure && record.dDelta_dT > 0.0 && record.p_max <= 0.0) return RunOutcome::LiftOff;
   if (record.T >= cfg.T_end - 1e-9 * dT) return RunOutcome::TEnd;
   check_step_cap(record, cfg, dT);

@@ -45,7 +45,7 @@ constexpr double kRestEnergyFraction = 1e-4;
 /// it scales as V0^(-1/5).
 constexpr double kDryContactTime = 3.2181;
 /// time.max_steps default: the steps of this many dry lift-off times.  The
-/// case map's runs end by 1.7 dry lift-off times (rigid M = 1 at rest, T = 7.2).
+/// case map's runs end by 1.03 dry lift-off times (Roelands-DH M = 1000, T = 4.31).
 constexpr double kMaxStepsDryLiftOffs = 4.0;
 
 /// Dry Hertz approach (5/2 E)^(2/5) for the energy E (E = V0^2 / 2: (5/4 V0^2)^(2/5)).
@@ -116,8 +116,8 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
   if (r.residual > b.max_residual)
     throw RunFailure(fmt::format(
         "{}: no attempt converged (residual {:.3g}, more than {:g} times solver.tolerance = {:g}): "
-        "the solver cannot resolve this case on {}^2 points",
-        where(r), r.residual, b.max_residual / c.tolerance, c.tolerance, c.grid_points));
+        "the multigrid solver cannot solve this step, its film is not trusted",
+        where(r), r.residual, b.max_residual / c.tolerance, c.tolerance));
   if (std::abs(r.dDelta_dT) > b.max_speed)
     throw RunFailure(fmt::format(
         "{}: the ball speed |dDelta/dT| = {:.4g} exceeds {:.4g}, the most the energy of the "
