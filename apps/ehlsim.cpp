@@ -76,7 +76,7 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
       ->take_all();
   cmd->add_option("--restart", options.restart_file,
                   "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
-                  "solver.*, output.*, spike.* and time.T_end may differ")
+                  "solver.*, output.*, spike.*, time.T_end and time.max_steps may differ")
       ->type_name("CHECKPOINT");
   cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
   cmd->footer("\n" + describe_parameters());
@@ -127,10 +127,18 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
 }
 
 void print_summary(const RunSummary& s, const RunOutput& output) {
-  if (s.lifted_off) {
-    fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
-  } else {
-    fmt::print("no lift-off by T = {:.6g}\n", s.T_final);
+  switch (s.outcome) {
+    case RunOutcome::LiftOff:
+      fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
+      break;
+    case RunOutcome::AtRest:
+      fmt::print("at rest in the film at T = {:.6g}: no rebound (energy left {:.3g} of the "
+                 "impact energy, dDelta/dT at most {:.3g} V0 from now on)\n",
+                 s.T_final, s.final_energy, std::sqrt(s.final_energy));
+      break;
+    case RunOutcome::TEnd:
+      fmt::print("no lift-off by T = {:.6g} (time.T_end)\n", s.T_final);
+      break;
   }
   fmt::print("max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
              s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);

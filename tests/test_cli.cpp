@@ -2,6 +2,7 @@
 // --help / --version, and one tiny real run.
 #include <gtest/gtest.h>
 
+#include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
 
 #include <sys/wait.h>
@@ -21,45 +22,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using ehlsim::testing::ehlsim;
+using ehlsim::testing::quote;
+using ehlsim::testing::read_file;
+using ehlsim::testing::Result;
 using ehlsim::testing::TempDir;
-
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 fs::path write_file(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;
   return path;
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-/// Runs `ehlsim <args>` (args already quoted as needed) and captures everything.
-Result ehlsim(const std::string& args) {
-  const TempDir capture("capture");
-  const fs::path out = capture / "stdout";
-  const fs::path err = capture / "stderr";
-  const std::string command = quote(EHLSIM_BINARY) + " " + args + " > " + quote(out.string()) +
-                              " 2> " + quote(err.string()) + " < /dev/null";
-  const int status = std::system(command.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_file(out);
-  r.err = read_file(err);
-  return r;
 }
 
 /// Bad input: exit code 2 and exactly `message` on one line of stderr.
@@ -147,6 +118,20 @@ TEST(Cli, VersionAndHelp) {
   }
 }
 
+TEST(Cli, UsageDocumentsTheHelpVerbatim) {
+  // docs/usage.md quotes `ehlsim impact --help` in full: a new or changed
+  // option or key must be documented there too.
+  const Result help = ehlsim("impact --help");
+  ASSERT_EQ(help.exit_code, 0);
+  const std::string usage = read_file(fs::path(EHLSIM_SOURCE_DIR) / "docs" / "usage.md");
+  const std::string intro = "`./build/apps/ehlsim impact --help` (ehlsim " EHLSIM_VERSION
+                            "), verbatim:\n\n```text\n";
+  const std::size_t start = usage.find(intro);
+  ASSERT_NE(start, std::string::npos) << "docs/usage.md: no verbatim --help block";
+  const std::size_t body = start + intro.size();
+  EXPECT_EQ(usage.substr(body, usage.find("```\n", body) - body), help.out);
+}
+
 /// `ehlsim impact --quiet` on 33^2 into `run` with further options.
 Result tiny_run(const fs::path& run, const std::string& options) {
   return ehlsim("impact --quiet --set grid.points=33 --set solver.coarsest_points=9 " + options +
@@ -195,8 +180,8 @@ TEST(Cli, RestartFromACheckpoint) {
                                                quote(checkpoint.string())),
                    "body.elastic = true, but checkpoint '" + checkpoint.string() +
                        "' was written with false (a restart continues the same case: only "
-                       "solver.*, output.*, spike.* and time.T_end may change, solver.face_mean "
-                       "excepted)");
+                       "solver.*, output.*, spike.*, time.T_end and time.max_steps may change, "
+                       "solver.face_mean excepted)");
   const fs::path not_a_checkpoint = second / "timeseries.csv";
   r = tiny_run(dir / "fourth", "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
   EXPECT_EQ(r.exit_code, 2);

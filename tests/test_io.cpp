@@ -551,9 +551,9 @@ TEST(Writers, TimeSeriesHeaderRowsAndAtomicRename) {
   }
   EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"timeseries.csv"});
   EXPECT_EQ(read_file(path),
-            "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual\n"
-            "0.5,0.5,-1,0.1,0.3333333333,0.25,0.6666666667,1.5,3,1.23456789e-09\n"
-            "1,0,-1,0.2,0.3333333333,0.25,0.6666666667,1.5,4,1.23456789e-09\n");
+            "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual,attempts,work\n"
+            "0.5,0.5,-1,0.1,0.3333333333,0.25,0.6666666667,1.5,3,1.23456789e-09,1,0\n"
+            "1,0,-1,0.2,0.3333333333,0.25,0.6666666667,1.5,4,1.23456789e-09,1,0\n");
 }
 
 TEST(Writers, NothingLeftWhenNotCommitted) {

@@ -64,6 +64,8 @@ struct ImpactConfig {
   // [time]
   double dT = 0.0;  ///< 0: equal to the mesh size
   double T_end = std::numeric_limits<double>::infinity();  ///< inf: until lift-off
+  /// Cap on the steps of a run until lift-off; 0: default_max_steps (impact/RunGuards.hpp).
+  int max_steps = 0;
   double Delta0 = 1.0;
   double V0 = 1.0;
 

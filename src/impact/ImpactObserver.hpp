@@ -1,7 +1,9 @@
 #pragma once
 // What a running impact simulation reports, step by step, to whoever listens
 // (the command's writers and progress line, a test, a study driver).
+#include <limits>
 #include <string>
+#include <string_view>
 
 #include "grid/Grid.hpp"
 
@@ -27,9 +29,27 @@ struct StepRecord {
   double work = 0.0;
 };
 
+/// How a run ended with exit 0 (docs/usage.md, "How a run ends"); a run that
+/// cannot end honestly throws instead (impact/RunGuards.hpp).
+enum class RunOutcome {
+  LiftOff,  ///< the film lost its last pressure while the ball moved apart
+  AtRest,   ///< the ball stopped in the film: too little energy left for a rebound
+  TEnd,     ///< time.T_end reached first
+};
+
+inline std::string_view outcome_text(RunOutcome outcome) {
+  switch (outcome) {
+    case RunOutcome::LiftOff: return "lift_off";
+    case RunOutcome::AtRest: return "at_rest";
+    case RunOutcome::TEnd: break;
+  }
+  return "t_end";
+}
+
 /// Summary of a finished run.
 struct RunSummary {
   int steps = 0;
+  RunOutcome outcome = RunOutcome::TEnd;
   bool lifted_off = false;
   double T_final = 0.0;
   double T_lift_off = 0.0;      ///< NaN when the run ended before lift-off
@@ -40,9 +60,13 @@ struct RunSummary {
   double T_min_h_center = 0.0;
   double initial_force = 0.0;   ///< film force at T = 0 (quasi-static squeeze film)
   double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT, from T = 0
+  /// Elastic energy of the solids under the film at T = 0 [m v0^2] (RunGuards.hpp).
+  double initial_elastic_energy = 0.0;
   double wall_seconds = 0.0;
   int unconverged_steps = 0;    ///< steps that ended at solver.max_cycles above solver.tolerance
   int retried_steps = 0;        ///< steps solved again with more damping after diverging
+  /// Kinetic plus elastic energy left at the end, over the impact energy V0^2 / 2.
+  double final_energy = std::numeric_limits<double>::quiet_NaN();
 };
 
 class ImpactObserver {

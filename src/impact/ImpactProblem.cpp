@@ -13,6 +13,7 @@
 
 #include "dynamics/Newmark.hpp"
 #include "impact/ReynoldsFasLevel.hpp"
+#include "impact/RunGuards.hpp"
 #include "multigrid/Fas.hpp"
 
 namespace ehlsim {
@@ -93,6 +94,22 @@ struct ImpactProblem::Impl {
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
                    bool snapshot) const;
+
+  // How run() starts, checks and ends each step (impact/RunGuards.hpp).
+  struct RunProgress {
+    BallState ball;
+    double force_now = 0.0, force_before = 0.0;
+    bool had_pressure = false;
+    int first_step = 1;
+    RunBounds bounds;
+    double energy = 0.0;  ///< kinetic + elastic energy after the last step
+  };
+  void start_at_delta0(RunProgress& run);
+  void start_from_restart(RunProgress& run);
+  double elastic_energy_now() const;
+  /// Throws RunFailure when the step broke a guard; the outcome when the run ends here.
+  std::optional<RunOutcome> check_step_end(const StepRecord& record, RunProgress& run);
+  void add_to_summary(const StepRecord& record);
 
   ImpactConfig cfg;
   Grid2D grid;
@@ -345,55 +362,98 @@ void ImpactProblem::Impl::report_step(ImpactObserver& observer, const StepRecord
   observer.on_step(record, unfold(P, grid), unfold(H, grid), snapshot);
 }
 
+void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
+  // The ball at Delta0 moving towards the flat, with the film pressure that
+  // this motion already carries (see solve_initial_pressure).
+  run.ball = {0.0, cfg.Delta0, -cfg.V0, 0.0};
+  const double initial_force = solve_initial_pressure();
+  check_initial_state(initial_force, solver->residual_norm(), cfg);
+  run.ball.A = kForceToAcceleration * initial_force;
+  const Field& H0 = levels.front()->op().film();
+  const Field& rho0 = levels.front()->op().density();
+  for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
+  rhoH_old = rhoH_now;
+  summary = RunSummary{};
+  summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
+  summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
+  summary.min_h_center = std::numeric_limits<double>::infinity();
+  summary.initial_force = initial_force;
+  summary.initial_elastic_energy = elastic_energy_now();
+  run.force_now = run.force_before = initial_force;
+  run.bounds = run_bounds(cfg, dT, summary.initial_elastic_energy);
+}
+
+void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
+  // The state a checkpoint stored: the time levels, the ball and the summary
+  // so far; the multigrid hierarchy starts from the last pressure.
+  ImpactState& s = *restart;
+  run.bounds = run_bounds(cfg, dT, s.summary.initial_elastic_energy);
+  run.ball = s.ball;
+  run.force_now = s.force;
+  run.force_before = s.force_before;
+  run.had_pressure = s.had_pressure;
+  summary = s.summary;
+  solver->solution() = fold(s.P, grid);
+  P_before = fold(s.P_before, grid);
+  rhoH_now = fold(s.rhoH, grid);
+  rhoH_old = fold(s.rhoH_before, grid);
+  run.first_step = s.step + 1;
+  restart.reset();
+}
+
+double ImpactProblem::Impl::elastic_energy_now() const {
+  const reynolds::ReynoldsOperator& fine = levels.front()->op();
+  return elastic_energy(grid, solver->solution(0), fine.deformation());
+}
+
+std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& record,
+                                                              RunProgress& run) {
+  const reynolds::ReynoldsOperator& fine = levels.front()->op();
+  check_step_physics(record, run.bounds, cfg, film_minimum(grid, solver->solution(0), fine.film()));
+  if (record.p_max > 0.0) run.had_pressure = true;
+  const double energy = elastic_energy_now();
+  run.energy = 0.5 * record.dDelta_dT * record.dDelta_dT + energy;
+  // A run to a given time.T_end goes on to it, at rest or not.
+  const bool until_lift_off = !std::isfinite(cfg.T_end);
+  if (until_lift_off && is_at_rest(record.dDelta_dT, energy, run.bounds)) return RunOutcome::AtRest;
+  if (run.had_pressure && record.dDelta_dT > 0.0 && record.p_max <= 0.0) return RunOutcome::LiftOff;
+  if (record.T >= cfg.T_end - 1e-9 * dT) return RunOutcome::TEnd;
+  check_step_cap(record, cfg, dT);
+  return std::nullopt;
+}
+
+void ImpactProblem::Impl::add_to_summary(const StepRecord& record) {
+  summary.steps = record.step;
+  summary.T_final = record.T;
+  if (record.force > summary.max_force) {
+    summary.max_force = record.force;
+    summary.T_max_force = record.T;
+  }
+  if (record.h_center < summary.min_h_center) {
+    summary.min_h_center = record.h_center;
+    summary.T_min_h_center = record.T;
+  }
+}
+
 RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
   observer.on_start(grid.full());
-
-  BallState ball;
-  double force_now = 0.0, force_before = 0.0;
-  bool had_pressure = false;
-  int first_step = 1;
+  RunProgress run;
   if (restart) {
-    // The state a checkpoint stored: the time levels, the ball and the
-    // summary so far; the multigrid hierarchy starts from the last pressure.
-    ImpactState& s = *restart;
-    ball = s.ball;
-    force_now = s.force;
-    force_before = s.force_before;
-    had_pressure = s.had_pressure;
-    summary = s.summary;
-    solver->solution() = fold(s.P, grid);
-    P_before = fold(s.P_before, grid);
-    rhoH_now = fold(s.rhoH, grid);
-    rhoH_old = fold(s.rhoH_before, grid);
-    first_step = s.step + 1;
-    restart.reset();
+    start_from_restart(run);
   } else {
-    // Initial state: the ball at Delta0 moving towards the flat, with the film
-    // pressure that this motion already carries (see solve_initial_pressure).
-    ball = {0.0, cfg.Delta0, -cfg.V0, 0.0};
-    const double initial_force = solve_initial_pressure();
-    ball.A = kForceToAcceleration * initial_force;
-    const Field& H0 = levels.front()->op().film();
-    const Field& rho0 = levels.front()->op().density();
-    for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
-    rhoH_old = rhoH_now;
-    summary = RunSummary{};
-    summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();
-    summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
-    summary.min_h_center = std::numeric_limits<double>::infinity();
-    summary.initial_force = initial_force;
-    force_now = force_before = initial_force;
+    start_at_delta0(run);
   }
-  for (int step = first_step;; ++step) {
+  BallState& ball = run.ball;
+  for (int step = run.first_step;; ++step) {
     // Linear extrapolation of the force is the initial guess of the new separation.
-    const double guess = step > 2 ? 2.0 * force_now - force_before : force_now;
+    const double guess = step > 2 ? 2.0 * run.force_now - run.force_before : run.force_now;
     work_at_step_start = work_units();
     const double force = solve_time_step(step, ball, guess);
     ball = newmark.advance(ball, force);
-    summary.impulse += 0.5 * (force_now + force) * dT * kForceToAcceleration;
-    force_before = force_now;
-    force_now = force;
+    summary.impulse += 0.5 * (run.force_now + force) * dT * kForceToAcceleration;
+    run.force_before = run.force_now;
+    run.force_now = force;
 
     reynolds::ReynoldsOperator& fine = levels.front()->op();
     const Field& H = fine.film();
@@ -402,36 +462,27 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     for (std::size_t k = 0; k < H.size(); ++k) rhoH_now[k] = rho[k] * H[k];
 
     const StepRecord record = make_record(step, ball, force);
-    if (record.p_max > 0.0) had_pressure = true;
-    const bool lifted_off = had_pressure && ball.V > 0.0 && record.p_max <= 0.0;
-    const bool at_end = ball.T >= cfg.T_end - 1e-9 * dT;
-    const bool snapshot = step % cfg.snapshot_every == 0 || lifted_off || at_end;
+    const std::optional<RunOutcome> end = check_step_end(record, run);
+    const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
-
-    summary.steps = step;
-    summary.T_final = ball.T;
-    if (force > summary.max_force) {
-      summary.max_force = force;
-      summary.T_max_force = ball.T;
-    }
-    if (record.h_center < summary.min_h_center) {
-      summary.min_h_center = record.h_center;
-      summary.T_min_h_center = ball.T;
-    }
-    if (state_sink && state_every > 0 && step % state_every == 0 && !lifted_off && !at_end) {
+    add_to_summary(record);
+    if (state_sink && state_every > 0 && step % state_every == 0 && !end) {
       // Full-grid fields, whatever grid the solver works on: a checkpoint
       // does not depend on solver.symmetry.
-      state_sink(ImpactState{step, ball, force_now, force_before, had_pressure, summary,
-                             unfold(solver->solution(), grid), unfold(P_before, grid),
+      state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure,
+                             summary, unfold(solver->solution(), grid), unfold(P_before, grid),
                              unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
     }
-    if (lifted_off) {
-      summary.lifted_off = true;
-      summary.T_lift_off = ball.T;
-      summary.rebound_speed = ball.V;
+    if (end) {
+      summary.outcome = *end;
+      summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);
+      if (*end == RunOutcome::LiftOff) {
+        summary.lifted_off = true;
+        summary.T_lift_off = ball.T;
+        summary.rebound_speed = ball.V;
+      }
       break;
     }
-    if (at_end) break;
   }
   summary.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

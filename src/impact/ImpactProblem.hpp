@@ -19,10 +19,12 @@ class ImpactProblem {
   ImpactProblem(const ImpactProblem&) = delete;
   ImpactProblem& operator=(const ImpactProblem&) = delete;
 
-  /// Marches from Delta0 until lift-off (or T_end); reports every step to `observer`.
-  /// Throws std::runtime_error when the iteration of a time step diverges; a
-  /// step that ends at solver.max_cycles above solver.tolerance is kept and
-  /// counted in RunSummary::unconverged_steps.
+  /// Marches from Delta0 until lift-off, rest in the film (or T_end); reports
+  /// every step to `observer`.  Throws std::runtime_error when the iteration of
+  /// a time step diverges, RunFailure (impact/RunGuards.hpp) when a step breaks
+  /// a physics guard or the step cap; a step that ends at solver.max_cycles at
+  /// most 100 times above solver.tolerance is kept and counted in
+  /// RunSummary::unconverged_steps.
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;

@@ -21,7 +21,8 @@ namespace {
 
 constexpr const char* kFormatName = "ehlsim checkpoint";
 /// Raised when the layout of the file changes; a reader accepts only its own.
-constexpr int kFormatVersion = 1;
+/// 2: summary_initial_elastic_energy (the energy bounds of a run).
+constexpr int kFormatVersion = 2;
 
 /// The double-valued scalars of the state, by attribute name: one list serves
 /// writing and reading, so the two cannot drift apart.
@@ -42,6 +43,7 @@ void for_each_scalar(State& s, Visit&& visit) {
   visit("summary_impulse", s.summary.impulse);
   visit("summary_T_lift_off", s.summary.T_lift_off);
   visit("summary_rebound_speed", s.summary.rebound_speed);
+  visit("summary_initial_elastic_energy", s.summary.initial_elastic_energy);
 }
 
 template <class State, class Visit>
@@ -199,7 +201,7 @@ void check_restart_compatible(const nlohmann::json& checkpoint_parameters,
   const auto free_to_change = [](const std::string& key) {
     if (key == "solver_face_mean") return false;
     return key.starts_with("solver_") || key.starts_with("output_") || key.starts_with("spike_") ||
-           key == "time_T_end";
+           key == "time_T_end" || key == "time_max_steps";
   };
   const nlohmann::json saved = flatten_parameters(checkpoint_parameters);
   const nlohmann::json now = flatten_parameters(parameters);
@@ -218,7 +220,7 @@ void check_restart_compatible(const nlohmann::json& checkpoint_parameters,
       if (value_now != value_saved) {
         throw ConfigError(
             fmt::format("{} = {}, but checkpoint '{}' was written with {} (a restart continues "
-                        "the same case: only solver.*, output.*, spike.* and time.T_end may "
+                        "the same case: only solver.*, output.*, spike.*, time.T_end and time.max_steps may "
                         "change, solver.face_mean excepted)",
                         dotted(it.key()), value_now, file, value_saved),
             dotted(it.key()));

@@ -18,6 +18,7 @@
 #include <toml++/toml.h>
 
 #include "grid/Grid.hpp"
+#include "impact/RunGuards.hpp"
 #include "impact/Scaling.hpp"
 #include "rheology/Lubricant.hpp"
 
@@ -278,6 +279,14 @@ std::vector<ParameterSpec> build_registry() {
                                "end time; inf: until lift-off");
     t_end.allow_infinite = true;
     r.push_back(std::move(t_end));
+  }
+  {
+    ParameterSpec cap = integer("time.max_steps", 0, at_least(1), none, false,
+                                "a run until lift-off that has not ended (lift-off or at rest) "
+                                "after this many steps fails (exit 1)");
+    cap.default_value.reset();
+    cap.default_text = "4 dry lift-off times, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT";
+    r.push_back(std::move(cap));
   }
   r.push_back(real("time.Delta0", kDefaultDelta0, "", above(0), none, "",
                    "initial separation Delta(0) (unit: delta*)"));
@@ -925,6 +934,28 @@ void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
   }
 }
 
+/// The undeformed gap at T = 0, Delta0 + (X^2 + Y^2) / 2 + waviness, must be
+/// positive at every grid point: a start with the surfaces already through
+/// each other is no impact (model.md).  Only the waviness can make it negative.
+void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
+  if (!(c.waviness_amplitude > 0.0)) return;
+  const Grid2D grid(c.grid_points, c.half_width);
+  double largest = std::numeric_limits<double>::infinity();  // amplitude that keeps the gap > 0
+  for (int j = 0; j < grid.n; ++j) {
+    for (int i = 0; i < grid.n; ++i) {
+      const double x = grid.x(i), y = grid.y(j);
+      const double wave = waviness_height(c, x, y) / c.waviness_amplitude;  // cos(...)
+      if (wave < 0.0) largest = std::min(largest, (c.Delta0 + 0.5 * (x * x + y * y)) / -wave);
+    }
+  }
+  if (c.waviness_amplitude < largest) return;
+  in.fail("surface.waviness_amplitude",
+          fmt::format("must be < {:.6g} for time.Delta0 = {:g} on this grid (the undeformed gap "
+                      "Delta0 + (X^2 + Y^2)/2 + A_w cos(...) at T = 0 must be > 0 at every grid "
+                      "point)",
+                      largest, c.Delta0));
+}
+
 void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.elastic = in.get<bool>("body.elastic");
   c.grid_points = in.integer("grid.points");
@@ -933,6 +964,8 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.T_end = in.optional_real("time.T_end").value_or(std::numeric_limits<double>::infinity());
   c.Delta0 = in.real("time.Delta0");
   c.V0 = in.real("time.V0");
+  c.max_steps = in.has("time.max_steps") ? in.get<int>("time.max_steps")
+                                        : default_max_steps(c.Delta0, c.V0, effective_time_step(c));
   c.waviness_amplitude = in.real("surface.waviness_amplitude");
   c.waviness_wavelength = in.real("surface.waviness_wavelength");
   c.waviness_angle_deg = in.real("surface.waviness_angle_deg");
@@ -956,6 +989,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                       : DeformationMethod::Fft;
 
+  check_undeformed_gap(in, c);
   if (c.coarsest_points > c.grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", c.grid_points));
   }
@@ -1070,6 +1104,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["grid"] = {{"points", c.grid_points}, {"half_width", c.half_width}};
   j["time"] = {{"dT", effective_time_step(c)},
                {"T_end", std::isfinite(c.T_end) ? json(c.T_end) : json(nullptr)},
+               {"max_steps", c.max_steps},
                {"Delta0", c.Delta0},
                {"V0", c.V0}};
   j["surface"] = {{"waviness_amplitude", c.waviness_amplitude},

@@ -98,6 +98,7 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
   j["grid"] = {{"points", grid_.n}, {"half_width", grid_.half_width}, {"h", grid_.h()}};
   j["dT"] = effective_time_step(config_);
   j["results"] = {{"steps", s.steps},
+                  {"outcome", outcome_text(s.outcome)},
                   {"lifted_off", s.lifted_off},
                   {"T_final", s.T_final},
                   {"T_lift_off", number_or_null(s.T_lift_off)},
@@ -108,6 +109,8 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"T_min_h_center", s.T_min_h_center},
                   {"initial_force", s.initial_force},
                   {"impulse", s.impulse},
+                  {"initial_elastic_energy", s.initial_elastic_energy},
+                  {"final_energy", number_or_null(s.final_energy)},
                   {"unconverged_steps", s.unconverged_steps},
                   {"retried_steps", s.retried_steps}};
   j["wall_seconds"] = wall;

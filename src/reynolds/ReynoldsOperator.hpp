@@ -117,6 +117,8 @@ class ReynoldsOperator {
 
   // Coefficients of the last update_coefficients().
   [[nodiscard]] const Field& film() const { return H_; }
+  /// The elastic deformation W(P) in the film (zero for rigid bodies).
+  [[nodiscard]] const Field& deformation() const { return W_; }
   [[nodiscard]] const Field& density() const { return rho_; }
   [[nodiscard]] const Field& xi() const { return xi_; }
   /// d rho / d P at the points (for the Newton diagonal of compressible fluids).

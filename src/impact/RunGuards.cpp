@@ -1,0 +1,168 @@
+#include "impact/RunGuards.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+namespace ehlsim {
+
+namespace {
+/// Relative room of the speed bound for the film's own discretisation: 2 % of
+/// V0 (4 % of the energy).  The largest rebound speed of the case map
+/// (docs/validation.md) is 0.998 V0, M = 10000 on 65^2.
+constexpr double kSpeedTolerance = 0.02;
+/// ... plus the time-discretisation error of the Newmark scheme, O(dT^2): the
+/// dry Hertz impact has error constants <= 0.32 (tests/test_dynamics.cpp,
+/// SecondOrderInTimeStep); 1 leaves a factor 3.
+constexpr double kSpeedTimeError = 1.0;
+/// Delta may not go below (1 + kApproachMargin) times the dry Hertz approach of
+/// the run's energy (plus the waviness amplitude).  The dry approach is the
+/// largest one for that energy: of all deformations with H >= 0 at a given
+/// Delta, the Hertz contact stores the least elastic energy (the contact
+/// problem is the energy minimum).  50 %: room for the grid.
+constexpr double kApproachMargin = 0.5;
+/// The force may not exceed this many times the largest dry Hertz force of
+/// the run's energy (elastic bodies).  A lubricated film can exceed the dry
+/// force while it dissipates (largest in the case map: 1.4 times, M = 1, L = 5,
+/// the quasi-static film at T = 0), but not without bound: the elastic energy
+/// of a force F spread over the domain is at least F^2 / (sqrt(2) pi b) times
+/// 3 / (4 pi) (the capacity of the disc around the square domain of half-width
+/// b), so F <= 3.7 = 1.6 times the dry force on the default domain b = 1.5.
+/// 4 leaves room for wider domains and the grid.
+constexpr double kForceMargin = 4.0;
+/// A step that no attempt brought below solver.tolerance is kept when its
+/// residual is at most this many times the tolerance, and counted in
+/// unconverged_steps; worse, the run ends.  The case map's legitimate runs
+/// kept steps at up to 25 times the tolerance (65^2, M = 10, L = 20); the
+/// degenerate Roelands z = 1e6 case stays 300 to 1000 times above it.
+constexpr double kMaxKeptResidualFactor = 100.0;
+/// At rest: at most this fraction of the impact energy V0^2 / 2 is left in the
+/// ball and the solids, so that any later rebound is below 1 % of V0.
+constexpr double kRestEnergyFraction = 1e-4;
+/// Dry contact time in units of t_bar for V0 = 1 (model.md, reference values);
+/// it scales as V0^(-1/5).
+constexpr double kDryContactTime = 3.2181;
+/// time.max_steps default: the steps of this many dry lift-off times.  The
+/// case map's runs end by 1.03 dry lift-off times (Roelands-DH M = 1000, T = 4.31).
+constexpr double kMaxStepsDryLiftOffs = 4.0;
+
+/// Dry Hertz approach (5/2 E)^(2/5) for the energy E (E = V0^2 / 2: (5/4 V0^2)^(2/5)).
+double dry_approach(double energy) { return std::pow(2.5 * energy, 0.4); }
+
+std::string where(const StepRecord& r) {
+  return fmt::format("time step {} (T = {:.5f})", r.step, r.T);
+}
+}  // namespace
+
+double waviness_height(const ImpactConfig& c, double x, double y) {
+  const double angle = c.waviness_angle_deg * std::numbers::pi / 180.0;
+  const double k = 2.0 * std::numbers::pi / c.waviness_wavelength;
+  return c.waviness_amplitude * std::cos(k * (std::cos(angle) * x + std::sin(angle) * y));
+}
+
+double elastic_energy(const Grid2D& grid, const Field& P, const Field& W) {
+  // Over the full grid: on a mirrored grid a point counts for its images.
+  const int first = grid.first_interior();
+  double sum = 0.0;
+  for (int j = first; j < grid.n - 1; ++j) {
+    double row = 0.0;
+    for (int i = first; i < grid.n - 1; ++i) row += grid.multiplicity(i) * P(i, j) * W(i, j);
+    sum += grid.multiplicity(j) * row;
+  }
+  return 3.0 / (4.0 * std::numbers::pi) * sum * grid.h() * grid.h();
+}
+
+int default_max_steps(double Delta0, double V0, double dT) {
+  const double dry_lift_off = Delta0 / V0 + kDryContactTime * std::pow(V0, -0.2);
+  return static_cast<int>(std::ceil(kMaxStepsDryLiftOffs * dry_lift_off / dT));
+}
+
+RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {
+  RunBounds b;
+  b.energy0 = 0.5 * c.V0 * c.V0 + std::max(0.0, elastic_energy0);
+  b.max_speed = std::sqrt(2.0 * b.energy0) * (1.0 + kSpeedTolerance + kSpeedTimeError * dT * dT);
+  const double approach = dry_approach(b.energy0);
+  b.min_delta = -(1.0 + kApproachMargin) * (approach + c.waviness_amplitude);
+  if (c.elastic)
+    b.max_force = kForceMargin * 2.0 * std::numbers::pi / 3.0 * std::pow(approach, 1.5);
+  b.max_residual = kMaxKeptResidualFactor * c.tolerance;
+  b.rest_energy = kRestEnergyFraction * 0.5 * c.V0 * c.V0;
+  return b;
+}
+
+FilmMinimum film_minimum(const Grid2D& grid, const Field& P, const Field& H) {
+  FilmMinimum m{std::numeric_limits<double>::infinity(), 0.0, 0.0, 0.0};
+  for (int j = grid.first_interior(); j < grid.n - 1; ++j) {
+    for (int i = grid.first_interior(); i < grid.n - 1; ++i) {
+      if (H(i, j) < m.h) m = {H(i, j), grid.x(i), grid.y(j), P(i, j)};
+    }
+  }
+  return m;
+}
+
+void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactConfig& c,
+                        const FilmMinimum& film) {
+  for (const double v : {r.Delta, r.dDelta_dT, r.force, r.h_min, r.p_max, r.residual}) {
+    if (!std::isfinite(v))
+      throw RunFailure(fmt::format(
+          "{}: the state is not finite (Delta = {}, dDelta/dT = {}, force = {}, h_min = {}, "
+          "p_max = {}): the solution diverged",
+          where(r), r.Delta, r.dDelta_dT, r.force, r.h_min, r.p_max));
+  }
+  if (r.residual > b.max_residual)
+    throw RunFailure(fmt::format(
+        "{}: no attempt converged (residual {:.3g}, more than {:g} times solver.tolerance = {:g}): "
+        "the multigrid solver cannot solve this step, its film is not trusted",
+        where(r), r.residual, b.max_residual / c.tolerance, c.tolerance));
+  if (std::abs(r.dDelta_dT) > b.max_speed)
+    throw RunFailure(fmt::format(
+        "{}: the ball speed |dDelta/dT| = {:.4g} exceeds {:.4g}, the most the energy of the "
+        "impact allows (no energy source): the solution diverged",
+        where(r), std::abs(r.dDelta_dT), b.max_speed));
+  if (r.Delta < b.min_delta || r.force > b.max_force)
+    throw RunFailure(fmt::format(
+        "{}: Delta = {:.4g}, force = {:.4g} beyond the bounds of the impact energy (Delta >= "
+        "{:.4g}, force <= {:.4g}): the solution diverged",
+        where(r), r.Delta, r.force, b.min_delta, b.max_force));
+  if (film.h < 0.0)
+    throw RunFailure(fmt::format(
+        "{}: negative film h_min = {:.3g} at X = {:.4g}, Y = {:.4g} (P = {:.3g} there): the "
+        "surfaces pass through each other; the grid cannot resolve this film: use more points "
+        "(grid.points = {})",
+        where(r), film.h, film.x, film.y, film.p, c.grid_points));
+}
+
+void check_initial_state(double force, double residual, const ImpactConfig& c) {
+  if (std::isfinite(force) && std::isfinite(residual) &&
+      residual <= kMaxKeptResidualFactor * c.tolerance)
+    return;
+  const std::string estimate =
+      c.viscosity == ViscosityModel::Barus
+          ? fmt::format(" (rigid Barus film: the pressure diverges unless Delta0^2 > alpha_bar "
+                        "lambda_bar V0 / 4 = {:.3g})",
+                        c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
+          : std::string();
+  throw RunFailure(fmt::format(
+      "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge (residual "
+      "{:.3g}, force {:.3g}): the film is too viscous for the ball to arrive there at time.V0 = "
+      "{:g}{}; start further away (a larger time.Delta0)",
+      c.Delta0, residual, force, c.V0, estimate));
+}
+
+void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
+  if (std::isfinite(c.T_end)) return;  // a run to T_end has its own end
+  const int cap = c.max_steps > 0 ? c.max_steps : default_max_steps(c.Delta0, c.V0, dT);
+  if (r.step < cap) return;
+  throw RunFailure(fmt::format(
+      "{}: no lift-off after {} steps (time.max_steps; Delta = {:.4g}, dDelta/dT = {:.4g}, "
+      "p_max = {:.4g}): raise time.max_steps, or set time.T_end to stop at a given time",
+      where(r), r.step, r.Delta, r.dDelta_dT, r.p_max));
+}
+
+bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {
+  return 0.5 * V * V + elastic_energy <= b.rest_energy;
+}
+
+}  // namespace ehlsim

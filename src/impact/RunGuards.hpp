@@ -1,0 +1,75 @@
+#pragma once
+// How an impact run may end, and the physics guards checked after every step
+// (docs/usage.md, "How a run ends"; docs/validation.md, "Robustness over the
+// parameter range").
+//
+// Energy is the yardstick.  In units of m v0^2 the ball carries V^2 / 2 and
+// the elastic solids (3 / (4 pi)) Int Int P W dX dY (W = H - Delta - the
+// undeformed shape: the deformation).  Film and solids only dissipate, so the
+// sum never grows beyond its value at T = 0 (the impact energy V0^2 / 2 plus
+// the elastic energy of the quasi-static film the run starts with).  A state
+// that breaks a bound derived from it did not come from the equations: the
+// run ends with exit 1 and says why.
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "grid/Grid.hpp"
+#include "impact/ImpactConfig.hpp"
+#include "impact/ImpactObserver.hpp"
+
+namespace ehlsim {
+
+/// Height A_w cos(2 pi (X cos th + Y sin th) / wavelength) of the surface
+/// waviness at (x, y) (model.md; the same formula as reynolds/ReynoldsOperator).
+[[nodiscard]] double waviness_height(const ImpactConfig& c, double x, double y);
+
+/// Elastic energy (3 / (4 pi)) h^2 sum P W of the solids (W the deformation,
+/// zero for rigid bodies), in units of m v0^2, over the full grid that `grid`
+/// stands for.
+[[nodiscard]] double elastic_energy(const Grid2D& grid, const Field& P, const Field& W);
+
+/// The default of time.max_steps: the steps of kMaxStepsDryLiftOffs times the
+/// dry lift-off time Delta0 / V0 + T_c(V0) at the time step dT.
+[[nodiscard]] int default_max_steps(double Delta0, double V0, double dT);
+
+/// The bounds of one run, fixed at T = 0 from its energy.
+struct RunBounds {
+  double energy0 = 0.0;    ///< V0^2 / 2 + elastic energy at T = 0 [m v0^2]
+  double max_speed = 0.0;  ///< |dDelta/dT| (no energy source)
+  double min_delta = 0.0;  ///< Delta (the dry Hertz approach of energy0, with margin)
+  double max_force = std::numeric_limits<double>::infinity();  ///< elastic bodies only
+  double max_residual = 0.0;  ///< of a step kept above solver.tolerance
+  double rest_energy = 0.0;   ///< below this remaining energy the ball is at rest
+};
+
+[[nodiscard]] RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0);
+
+/// A run that cannot honestly go on: the message names the step, T and the reason.
+class RunFailure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The film state at the point where h_min is reached (for the message).
+struct FilmMinimum {
+  double h = 0.0, x = 0.0, y = 0.0, p = 0.0;
+};
+[[nodiscard]] FilmMinimum film_minimum(const Grid2D& grid, const Field& P, const Field& H);
+
+/// Throws RunFailure when the step's state is not finite, breaks a bound, has
+/// a negative film, or was kept unconverged too far above the tolerance.
+void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactConfig& c,
+                        const FilmMinimum& film);
+
+/// Throws RunFailure when the film pressure at T = 0 is not a solution.
+void check_initial_state(double force, double residual, const ImpactConfig& c);
+
+/// Throws RunFailure when `step` reached the cap of a run until lift-off.
+void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT);
+
+/// At rest: the ball's kinetic energy and the elastic energy left in the
+/// solids, the most any later rebound could get, is below rest_energy.
+[[nodiscard]] bool is_at_rest(double V, double elastic_energy, const RunBounds& b);
+
+}  // namespace ehlsim
