@@ -64,6 +64,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   const double w = settings_.omega_jacobi * damping_;
   const double w_gs = settings_.omega_gauss_seidel * damping_;
   const Field& d = jacobi_change_;
+  const bool threaded = worth_threads(grid);
   // Zebra order: the lines of one colour are independent given the other
   // colour, so they are relaxed in parallel; the coefficients (and with them
   // the elastic deformation) are brought up to date before each colour, so
@@ -76,7 +77,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     jacobi_change_.fill(0.0);
     long colour_jac = 0;
     const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
-#pragma omp parallel reduction(+ : gs, colour_jac)
+#pragma omp parallel reduction(+ : gs, colour_jac) if (threaded)
     {
       LineWork line_work(n - 1 - first);
 #pragma omp for schedule(static)
@@ -100,7 +101,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     // Distributive changes: delta at the point, -delta/4 at each neighbour
     // (across a symmetry axis the neighbour is the mirror image, whose change
     // equals the point's own).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (threaded)
     for (int j = first; j < n - 1; ++j) {
       for (int i = first; i < n - 1; ++i) {
         const double change =

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 namespace ehlsim::reynolds {
 
@@ -64,7 +65,8 @@ void ReynoldsOperator::update_pressure_terms(const Field& P) {
   // cavitated, and the exponential is the costly part of the loop.
   const double eta_zero = lubricant_.eta_bar(0.0);
   const std::size_t size = grid_.size();
-#pragma omp parallel for schedule(static)
+  const bool threaded = worth_threads(grid_);
+#pragma omp parallel for schedule(static) if (threaded)
   for (std::size_t k = 0; k < size; ++k) {
     const double p = std::max(P[k], 0.0);
     const double rho = lubricant_.rho_bar(p);
@@ -81,7 +83,8 @@ void ReynoldsOperator::update_pressure_terms(const Field& P) {
 
 void ReynoldsOperator::update_film() {
   const std::size_t size = grid_.size();
-#pragma omp parallel for schedule(static)
+  const bool threaded = worth_threads(grid_);
+#pragma omp parallel for schedule(static) if (threaded)
   for (std::size_t k = 0; k < size; ++k) {
     const double h = delta_ + shape_[k] + W_[k];
     H_[k] = h;
@@ -106,7 +109,8 @@ void ReynoldsOperator::apply(const Field& P, Field& N) {
   const int n = grid_.n;
   const int first = grid_.first_interior();
   N.fill(0.0);
-#pragma omp parallel for schedule(static)
+  const bool threaded = worth_threads(grid_);
+#pragma omp parallel for schedule(static) if (threaded)
   for (int j = first; j < n - 1; ++j)
     for (int i = first; i < n - 1; ++i) N(i, j) = apply_at(P, i, j);
 }
@@ -120,18 +124,23 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
 
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {
   // Over the full grid's interior: on a mirrored grid each point counts as
-  // many times as it has images.
+  // many times as it has images.  The rows are summed on the threads, the
+  // row sums in order on one: the same bits on any number of threads.
   const int n = grid_.n;
   const int first = grid_.first_interior();
-  double sum = 0.0;
+  std::vector<double> rows(static_cast<std::size_t>(n), 0.0);
+  const bool threaded = worth_threads(grid_);
+#pragma omp parallel for schedule(static) if (threaded)
   for (int j = first; j < n - 1; ++j) {
     double row = 0.0;
     for (int i = first; i < n - 1; ++i) {
       const double scaled = r(i, j) / diagonal_at(i, j);
       row += grid_.multiplicity(i) * scaled * scaled;
     }
-    sum += grid_.multiplicity(j) * row;
+    rows[j] = grid_.multiplicity(j) * row;
   }
+  double sum = 0.0;
+  for (int j = first; j < n - 1; ++j) sum += rows[j];
   const double count = grid_.full_interior();
   return std::sqrt(sum / (count * count));
 }
