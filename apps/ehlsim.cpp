@@ -110,8 +110,9 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
                  ? fmt::format(", waviness A = {:.4g}, wavelength {:.4g}, angle {:.4g} deg",
                                c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg)
                  : std::string());
-  fmt::print("  grid       {}^2 on [-{:g}, {:g}]^2, h = {:.6g}\n", c.grid_points, c.half_width,
-             c.half_width, grid.h());
+  fmt::print("  grid       {}^2 on [-{:g}, {:g}]^2, h = {:.6g}{}\n", c.grid_points, c.half_width,
+             c.half_width, grid.h(),
+             is_mirror_symmetric(c) ? ", solved on the quadrant X, Y >= 0 (mirror symmetry)" : "");
   fmt::print("  time       dT = {:.6g}, {}, Delta0 = {:g}, V0 = {:g}\n", effective_time_step(c),
              std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
              c.Delta0, c.V0);

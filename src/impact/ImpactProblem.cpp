@@ -18,6 +18,13 @@
 
 namespace ehlsim {
 
+bool is_mirror_symmetric(const ImpactConfig& c) {
+  if (!c.use_symmetry) return false;
+  if (c.waviness_amplitude == 0.0) return true;
+  const double quarter_turns = c.waviness_angle_deg / 90.0;
+  return quarter_turns == std::round(quarter_turns);
+}
+
 namespace {
 /// BDF coefficients (b0, b1, b2) of d/dT u ~ (b0 u^{n+1} + b1 u^n + b2 u^{n-1}) / dT.
 struct BdfCoefficients {
@@ -31,17 +38,6 @@ constexpr double kDivergenceFactor = 1e3;
 /// by kRetryDamping once more.
 constexpr int kMaxRetries = 2;
 constexpr double kRetryDamping = 0.5;
-
-/// True when the case is even in X and Y, so that its solution is the mirror
-/// image of the one on the quadrant X, Y >= 0: the undeformed gap is even
-/// when the waviness is absent or runs along an axis (angle a multiple of 90
-/// degrees).
-bool is_mirror_symmetric(const ImpactConfig& c) {
-  if (!c.use_symmetry) return false;
-  if (c.waviness_amplitude == 0.0) return true;
-  const double quarter_turns = c.waviness_angle_deg / 90.0;
-  return quarter_turns == std::round(quarter_turns);
-}
 
 /// The grid the solver works on: the quadrant of the case's grid when the
 /// case is even in X and Y, else the case's grid itself.

@@ -11,6 +11,12 @@
 
 namespace ehlsim {
 
+/// True when the solver works on the quadrant X, Y >= 0 with mirror
+/// conditions on the axes: solver.symmetry = auto and the case is even in X
+/// and Y (the undeformed gap is even when the waviness is absent or runs along
+/// an axis, its angle a multiple of 90 degrees).
+[[nodiscard]] bool is_mirror_symmetric(const ImpactConfig& config);
+
 class ImpactProblem {
  public:
   /// The config must already be validated and complete (lambda_bar, alpha_bar set).

@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include "impact/ImpactProblem.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/Parameters.hpp"
 
@@ -95,7 +96,10 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"lambda_bar", config_.lambda_bar},
                   {"alpha_bar", config_.alpha_bar}};
   if (config_.physical) j["derived"]["scales"] = parameters_["scales"];
-  j["grid"] = {{"points", grid_.n}, {"half_width", grid_.half_width}, {"h", grid_.h()}};
+  j["grid"] = {{"points", grid_.n},
+               {"half_width", grid_.half_width},
+               {"h", grid_.h()},
+               {"solved_on", is_mirror_symmetric(config_) ? "quadrant" : "full"}};
   j["dT"] = effective_time_step(config_);
   j["results"] = {{"steps", s.steps},
                   {"outcome", outcome_text(s.outcome)},
