@@ -80,7 +80,9 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
 #pragma omp parallel reduction(+ : gs, colour_jac) if (threaded)
     {
       LineWork line_work(n - 1 - first);
-#pragma omp for schedule(static)
+      // Lines round-robin: on the quadrant the contact (the costly lines)
+      // lies at one end, and blocks of lines would give it all to one thread.
+#pragma omp for schedule(static, 1)
       for (int line = first_line; line < n - 1; line += 2) {
         relax_line(P, f, line, direction, line_work);
         for (int a = first; a < n - 1; ++a) {
