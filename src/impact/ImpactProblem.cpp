@@ -35,9 +35,8 @@ constexpr BdfCoefficients kBdf2{1.5, -2.0, 0.5};
 /// A step whose residual grows this far above its starting value has diverged.
 constexpr double kDivergenceFactor = 1e3;
 /// Retries of a diverged or stalled step, each with the under-relaxation scaled
-/// by kRetryDamping once more.
+/// by solver.retry_damping once more.
 constexpr int kMaxRetries = 2;
-constexpr double kRetryDamping = 0.5;
 
 /// The grid the solver works on: the quadrant of the case's grid when the
 /// case is even in X and Y, else the case's grid itself.
@@ -229,7 +228,7 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
   double best_delta = start_delta;
   int best_cycles = 0;
   for (int attempt = 0;; ++attempt) {
-    const double damping = std::pow(kRetryDamping, attempt);
+    const double damping = std::pow(cfg.retry_damping, attempt);
     for (auto& level : levels) level->smoother().set_damping(damping);
     // The retries also guard against coarse-grid corrections that make the
     // residual worse (multigrid/Fas.hpp): on 513^2 the coarse grids cannot

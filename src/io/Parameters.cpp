@@ -65,6 +65,7 @@ namespace {
 Bound above(double v) { return {v, false}; }
 Bound at_least(double v) { return {v, true}; }
 Bound at_most(double v) { return {v, true}; }
+Bound below(double v) { return {v, false}; }
 
 ParameterSpec real(std::string key, std::optional<double> def, std::string default_text,
                    std::optional<Bound> lower, std::optional<Bound> upper, std::string units,
@@ -319,6 +320,9 @@ std::vector<ParameterSpec> build_registry() {
                    none, "",
                    "in the retries of a step, undo a coarse-grid correction that raises the "
                    "residual norm of its level more than this many times (0: never)"));
+  r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
+                   "a retried step scales both under-relaxation factors by this once more per "
+                   "retry"));
   r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
@@ -976,6 +980,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.tolerance = in.real("solver.tolerance");
   c.max_cycles = in.integer("solver.max_cycles");
   c.correction_safeguard = in.real("solver.correction_safeguard");
+  c.retry_damping = in.real("solver.retry_damping");
   c.pre_sweeps = in.integer("solver.pre_sweeps");
   c.post_sweeps = in.integer("solver.post_sweeps");
   c.coarsest_points = in.integer("solver.coarsest_points");
@@ -1117,6 +1122,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                  {"tolerance", c.tolerance},
                  {"max_cycles", c.max_cycles},
                  {"correction_safeguard", c.correction_safeguard},
+                 {"retry_damping", c.retry_damping},
                  {"pre_sweeps", c.pre_sweeps},
                  {"post_sweeps", c.post_sweeps},
                  {"coarsest_points", c.coarsest_points},
