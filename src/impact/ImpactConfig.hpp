@@ -85,8 +85,9 @@ struct ImpactConfig {
   /// never.  10: a good correction lowers the norm 5-7 times, the largest rise
   /// seen in converging 129^2 steps was 4.3.
   double correction_safeguard = 10.0;
-  /// A retried step scales the under-relaxation by this once more per retry.
-  double retry_damping = 0.5;
+  /// The first retry of a step scales the under-relaxation by this, each
+  /// further retry by half as much again (ImpactProblem.cpp, attempt_damping).
+  double retry_damping = 0.8;
   int pre_sweeps = 3;
   int post_sweeps = 2;
   int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side

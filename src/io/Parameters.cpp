@@ -321,8 +321,8 @@ std::vector<ParameterSpec> build_registry() {
                    "in the retries of a step, undo a coarse-grid correction that raises the "
                    "residual norm of its level more than this many times (0: never)"));
   r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
-                   "a retried step scales both under-relaxation factors by this once more per "
-                   "retry"));
+                   "the first retry of a step scales both under-relaxation factors by this, "
+                   "each further retry (up to 3) by half as much again"));
   r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
