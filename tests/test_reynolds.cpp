@@ -35,6 +35,28 @@ Field transposed(const Field& a, const Grid2D& grid) {
   return t;
 }
 
+/// A pressure in contact (radius 0.8, shaped by `shape(x, y)`, with noise and
+/// a cavitated rim) and a squeeze right-hand side at the interior points of
+/// `grid` (on a mirrored grid the axes included).
+struct ContactData {
+  Field P, f;
+};
+template <class Shape>
+ContactData contact_data(const Grid2D& grid, unsigned seed, Shape shape) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> noise(-0.02, 0.02);
+  ContactData d{Field(grid), Field(grid)};
+  for (int j = grid.first_interior(); j < grid.n - 1; ++j) {
+    for (int i = grid.first_interior(); i < grid.n - 1; ++i) {
+      const double x = grid.x(i), y = grid.y(j);
+      const double r2 = (x * x + y * y) / 0.64;
+      d.P(i, j) = std::max(0.0, r2 < 1.0 ? std::sqrt(1.0 - r2) * shape(x, y) + noise(rng) : 0.0);
+      d.f(i, j) = -1.5 * (0.2 + 0.1 * x * y + noise(rng)) / grid.h();
+    }
+  }
+  return d;
+}
+
 // The gap (X^2 + Y^2)/2 + W(P) is symmetric under X <-> Y, so a sweep of Y
 // lines on the transposed problem must be the transpose of a sweep of X lines:
 // the same line systems, the same zebra colours, the same switch between
@@ -47,18 +69,7 @@ TEST(LineRelaxation, YLinesAreXLinesOfTheTransposedProblem) {
   relax.switch_ratio = 0.3;  // both kinds of points on this coarse grid
   LineRelaxation smoother(op, relax);
 
-  std::mt19937 rng(186);
-  std::uniform_real_distribution<double> noise(-0.02, 0.02);
-  Field P(grid), f(grid);
-  for (int j = 1; j < grid.n - 1; ++j) {
-    for (int i = 1; i < grid.n - 1; ++i) {
-      const double x = grid.x(i), y = grid.y(j);
-      const double r2 = (x * x + y * y) / 0.64;
-      P(i, j) = r2 < 1.0 ? std::sqrt(1.0 - r2) * (1.0 + 0.3 * x + 0.1 * y) + noise(rng) : 0.0;
-      P(i, j) = std::max(P(i, j), 0.0);
-      f(i, j) = -1.5 * (0.2 + 0.1 * x * y + noise(rng)) / grid.h();
-    }
-  }
+  const auto [P, f] = contact_data(grid, 186, [](double x, double y) { return 1.0 + 0.3 * x + 0.1 * y; });
   Field along_x = P;
   smoother.sweep(along_x, f, LineDirection::X);
   const SweepStats stats = smoother.last_sweep();
@@ -89,17 +100,7 @@ TEST(LineRelaxation, YLinesAreXLinesOfTheTransposedProblem) {
 TEST(LineRelaxation, QuadrantSweepsEqualFullGridSweeps) {
   const Grid2D full(33, 1.5);
   const Grid2D quadrant = full.quadrant();
-  std::mt19937 rng(2022);
-  std::uniform_real_distribution<double> noise(-0.02, 0.02);
-  Field Pq(quadrant), fq(quadrant);
-  for (int j = 0; j < quadrant.n - 1; ++j) {
-    for (int i = 0; i < quadrant.n - 1; ++i) {
-      const double x = quadrant.x(i), y = quadrant.y(j);
-      const double r2 = (x * x + y * y) / 0.64;
-      Pq(i, j) = std::max(0.0, r2 < 1.0 ? std::sqrt(1.0 - r2) * (1.0 + 0.2 * x * x) + noise(rng) : 0.0);
-      fq(i, j) = -1.5 * (0.2 + 0.1 * x * y + noise(rng)) / quadrant.h();
-    }
-  }
+  auto [Pq, fq] = contact_data(quadrant, 2022, [](double x, double) { return 1.0 + 0.2 * x * x; });
   Field P = unfold(Pq, quadrant);
   const Field f = unfold(fq, quadrant);
   for (int k = 0; k < full.n; ++k) P(k, 0) = P(0, k) = 0.0;  // the full grid's near edges

@@ -206,6 +206,26 @@ unsigned planner_flags(FftPlanning planning) {
 /// Number of batches the transforms of an n-point grid are cut into.
 int batch_count(int n) { return n >= kMinPointsForBatches ? kBatches : 1; }
 
+/// Runs a 2-D transform convolution as three stages, each a loop over the
+/// batches: along X (P in, forward), along Y (forward, product with the
+/// kernel spectrum, inverse), along X (inverse, W out).  A stage reads what the
+/// one before wrote across all batches, so each ends in its loop's barrier;
+/// within a stage a batch touches only its own rows or columns.  (Fewer
+/// barriers, less waiting: libgomp's waiting at barriers took 13 % of the
+/// samples of a default run when each transform had its own.)
+template <class RowsIn, class Columns, class RowsOut>
+void in_three_stages(int parts, RowsIn&& rows_in, Columns&& columns, RowsOut&& rows_out) {
+#pragma omp parallel if (parts > 1)
+  {
+#pragma omp for schedule(static)
+    for (int c = 0; c < parts; ++c) rows_in(c);
+#pragma omp for schedule(static)
+    for (int c = 0; c < parts; ++c) columns(c);
+#pragma omp for schedule(static)
+    for (int c = 0; c < parts; ++c) rows_out(c);
+  }
+}
+
 /// The full grid: r2c transforms of the n data rows (period m), c2c
 /// transforms of the m/2 + 1 spectral columns, product with the kernel
 /// spectrum, and back.  Skipping the all-zero padding rows saves about a
@@ -270,54 +290,43 @@ struct FullImpl final : FftDeformation::Impl {
     fftw_complex* s = spectrum.get();
     const double* kh = kernel_hat.get();
 
-    // Three stages, each a loop over the batches; a stage reads what the one
-    // before wrote across all batches, so each ends in its loop's barrier.
-    // Within a stage a batch's steps touch only its own rows or columns, so
-    // they need no barrier between them.  (Fewer barriers, less waiting: in
-    // a default run, libgomp's waiting at barriers took 13 % of the samples.)
-#pragma omp parallel if (parts > 1)
-    {
-      // Rows: P into the first n columns of the batch's data rows, zero
-      // padding after, then their real transforms.  The batch also clears its
-      // share of the spectrum's padding rows (overwritten by the previous
-      // inverse transform).
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        const Share rows = share(n, parts, c);
-        for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j) {
-          std::copy_n(p + j * un, un, r + j * um);
-          std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
+    // P into the first n columns of the batch's data rows, zero padding
+    // after, then their real transforms; the batch also clears its share of
+    // the spectrum's padding rows (overwritten by the previous inverse).
+    const auto rows_in = [&](int c) {
+      const Share rows = share(n, parts, c);
+      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j) {
+        std::copy_n(p + j * un, un, r + j * um);
+        std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
+      }
+      const Share padding = share(m - n, parts, c);
+      std::memset(static_cast<void*>(s + (un + padding.begin) * umc), 0,
+                  sizeof(fftw_complex) * umc * (padding.end - padding.begin));
+      fftw_execute(rows_forward[c].get());
+    };
+    // The batch's columns: forward, product with the kernel spectrum (even in
+    // ky), inverse.
+    const auto columns = [&](int c) {
+      fftw_execute(cols_forward[c].get());
+      const Share cols = share(mc, parts, c);
+      for (std::size_t ky = 0; ky < um; ++ky) {
+        const double* k = kh + std::min(ky, um - ky) * umc;
+        fftw_complex* row = s + ky * umc;
+        for (auto kx = static_cast<std::size_t>(cols.begin); kx < static_cast<std::size_t>(cols.end); ++kx) {
+          row[kx][0] *= k[kx];
+          row[kx][1] *= k[kx];
         }
-        const Share padding = share(m - n, parts, c);
-        std::memset(static_cast<void*>(s + (un + padding.begin) * umc), 0,
-                    sizeof(fftw_complex) * umc * (padding.end - padding.begin));
-        fftw_execute(rows_forward[c].get());
       }
-      // Columns: forward transform, product with the kernel transform (even
-      // in ky), inverse transform.
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        fftw_execute(cols_forward[c].get());
-        const Share cols = share(mc, parts, c);
-        for (std::size_t ky = 0; ky < um; ++ky) {
-          const double* k = kh + std::min(ky, um - ky) * umc;
-          fftw_complex* row = s + ky * umc;
-          for (auto kx = static_cast<std::size_t>(cols.begin); kx < static_cast<std::size_t>(cols.end); ++kx) {
-            row[kx][0] *= k[kx];
-            row[kx][1] *= k[kx];
-          }
-        }
-        fftw_execute(cols_backward[c].get());
-      }
-      // Rows: inverse real transforms, W out of the first n columns.
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        fftw_execute(rows_backward[c].get());
-        const Share rows = share(n, parts, c);
-        for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j)
-          std::copy_n(r + j * um, un, w + j * un);
-      }
-    }
+      fftw_execute(cols_backward[c].get());
+    };
+    // Inverse real transforms, W out of the first n columns.
+    const auto rows_out = [&](int c) {
+      fftw_execute(rows_backward[c].get());
+      const Share rows = share(n, parts, c);
+      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j)
+        std::copy_n(r + j * um, un, w + j * un);
+    };
+    in_three_stages(parts, rows_in, columns, rows_out);
   }
 };
 
@@ -482,51 +491,45 @@ struct MirroredImpl final : FftDeformation::Impl {
     double* d = rows_data.get();
     double* t = columns_data.get();
     const double* kh = kernel_hat.get();
-    // Three stages with a barrier between them, as in FullImpl.
-#pragma omp parallel if (parts > 1)
-    {
-      // Along X: P into the first n values of each row, zeros after.
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        const Share r = share(n, parts, c);
-        for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j) {
-          std::copy_n(p + j * un, un, d + j * ud);
-          std::fill(d + j * ud + un, d + j * ud + umc, 0.0);
-        }
-        rows[c].apply(d + r.begin * ud);
+    // Along X: P into the first n values of each row, zeros after, transform.
+    const auto rows_in = [&](int c) {
+      const Share r = share(n, parts, c);
+      for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j) {
+        std::copy_n(p + j * un, un, d + j * ud);
+        std::fill(d + j * ud + un, d + j * ud + umc, 0.0);
       }
-      // Along Y, on the batch's columns kx: transposed into rows of t (zero
-      // beyond the n data values), transform, product with the kernel
-      // spectrum, inverse transform (DCT-I is its own inverse up to the
-      // scale), and the first n values transposed back.
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        const Share k = share(mc, parts, c);
-        double* strip = t + k.begin * ud;
-        const int cols = k.end - k.begin;
-        transpose(d + k.begin, dist, strip, dist, n, cols);
-        for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
-          double* row = strip + kx * ud;
-          std::fill(row + un, row + umc, 0.0);
-        }
-        columns[c].apply(strip);
-        for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
-          double* row = strip + kx * ud;
-          const double* kernel_row = kh + (k.begin + kx) * umc;
-          for (std::size_t ky = 0; ky < umc; ++ky) row[ky] *= kernel_row[ky];
-        }
-        columns[c].apply(strip);
-        transpose(strip, dist, d + k.begin, dist, cols, n);
+      rows[c].apply(d + r.begin * ud);
+    };
+    // Along Y, on the batch's columns kx: transposed into rows of t (zero
+    // beyond the n data values), transform, product with the kernel spectrum,
+    // inverse transform (DCT-I is its own inverse up to the scale), and the
+    // first n values transposed back.
+    const auto columns_stage = [&](int c) {
+      const Share k = share(mc, parts, c);
+      double* strip = t + k.begin * ud;
+      const int cols = k.end - k.begin;
+      transpose(d + k.begin, dist, strip, dist, n, cols);
+      for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
+        double* row = strip + kx * ud;
+        std::fill(row + un, row + umc, 0.0);
       }
-      // Along X: the inverse transforms, W out of the first n values.
-#pragma omp for schedule(static)
-      for (int c = 0; c < parts; ++c) {
-        const Share r = share(n, parts, c);
-        rows[c].apply(d + r.begin * ud);
-        for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j)
-          std::copy_n(d + j * ud, un, w + j * un);
+      columns[c].apply(strip);
+      for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
+        double* row = strip + kx * ud;
+        const double* kernel_row = kh + (k.begin + kx) * umc;
+        for (std::size_t ky = 0; ky < umc; ++ky) row[ky] *= kernel_row[ky];
       }
-    }
+      columns[c].apply(strip);
+      transpose(strip, dist, d + k.begin, dist, cols, n);
+    };
+    // Along X: the inverse transforms, W out of the first n values.
+    const auto rows_out = [&](int c) {
+      const Share r = share(n, parts, c);
+      rows[c].apply(d + r.begin * ud);
+      for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j)
+        std::copy_n(d + j * ud, un, w + j * un);
+    };
+    in_three_stages(parts, rows_in, columns_stage, rows_out);
   }
 };
 
