@@ -335,7 +335,8 @@ std::vector<ParameterSpec> build_registry() {
   const reynolds::RelaxationSettings& relax = kDefaults.relaxation;
   r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), none, "",
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
-                   "times the elastic-squeeze coefficient, else by distributive Jacobi"));
+                   "times the elastic-squeeze coefficient, else by distributive Jacobi (on "
+                   "meshes finer than 3/256: this times (3/256) / h)"));
   r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0),
                    at_most(1), "", "under-relaxation of the Gauss-Seidel line changes"));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
