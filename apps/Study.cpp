@@ -12,6 +12,8 @@
 #include "Study.hpp"
 
 #include <fcntl.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -24,11 +26,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <optional>
-
-#include <fmt/format.h>
-#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/AtomicFile.hpp"
@@ -110,7 +109,8 @@ std::vector<Case> study_cases(const StudyOptions& options, const fs::path& out) 
 std::vector<std::string> child_environment() {
   std::vector<std::string> env;
   for (char** e = environ; *e != nullptr; ++e) {
-    if (std::strncmp(*e, "OMP_NUM_THREADS=", std::strlen("OMP_NUM_THREADS=")) != 0) env.emplace_back(*e);
+    if (std::strncmp(*e, "OMP_NUM_THREADS=", std::strlen("OMP_NUM_THREADS=")) != 0)
+      env.emplace_back(*e);
   }
   env.emplace_back("OMP_NUM_THREADS=1");
   return env;
@@ -127,14 +127,16 @@ std::vector<char*> c_strings(std::vector<std::string>& strings) {
 pid_t spawn(const std::string& program, std::vector<std::string> args, const fs::path& log) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   std::vector<std::string> env = child_environment();
   std::vector<char*> argv = c_strings(args);
   std::vector<char*> envp = c_strings(env);
   pid_t pid = -1;
-  const int status = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data());
+  const int status =
+      posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   if (status != 0) {
     throw std::runtime_error(fmt::format("cannot start '{}': {}", program, std::strerror(status)));
@@ -223,8 +225,9 @@ fs::path default_plot_script() { return fs::path(EHLSIM_SCRIPT_DIR) / "plot_stud
 
 CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
   CLI::App* cmd = app.add_subcommand(
-      "study", "The paper's spike study: M = 10, 20, 50, 100 (L = 10) in parallel, the dry "
-               "reference, the spike analysis and the figures fig1..fig6.");
+      "study",
+      "The paper's spike study: M = 10, 20, 50, 100 (L = 10) in parallel, the dry "
+      "reference, the spike analysis and the figures fig1..fig6.");
   cmd->add_option("-g,--grid", options.grid, "points per side (2^k + 1; the paper used 1025)")
       ->capture_default_str();
   cmd->add_option("-o,--out", options.out_dir, "study directory (created if missing)")
@@ -232,8 +235,9 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
   cmd->add_option("-j,--jobs", options.jobs, "cases run at the same time (one thread each)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_option("--set", options.overrides,
-                  "passed to every case before the study's own keys, e.g. --set solver.max_cycles=30")
+  cmd->add_option(
+         "--set", options.overrides,
+         "passed to every case before the study's own keys, e.g. --set solver.max_cycles=30")
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false)
       ->take_all();
@@ -253,7 +257,8 @@ int run_study(const StudyOptions& options) {
   for (const Case& c : cases) {
     reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError, before any run
   }
-  const fs::path script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
+  const fs::path script =
+      options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
   if (!options.no_plots && !fs::exists(script)) {
     throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
   }
@@ -264,13 +269,16 @@ int run_study(const StudyOptions& options) {
   run_cases(cases, options.jobs);
 
   bool ok = true;
-  nlohmann::json summary = {{"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
-                            {"grid", options.grid},
-                            {"L", kStudyL},
-                            {"overrides", options.overrides},
-                            {"cases", nlohmann::json::array()}};
+  nlohmann::json summary = {
+      {"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
+      {"grid", options.grid},
+      {"L", kStudyL},
+      {"overrides", options.overrides},
+      {"cases", nlohmann::json::array()}};
   for (const Case& c : cases) {
-    nlohmann::json entry = {{"M", c.M}, {"dir", c.dir.filename().string()}, {"exit_code", c.exit_code},
+    nlohmann::json entry = {{"M", c.M},
+                            {"dir", c.dir.filename().string()},
+                            {"exit_code", c.exit_code},
                             {"wall_seconds", c.wall_seconds}};
     if (c.exit_code == cli::kExitOk) {
       const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
@@ -295,7 +303,8 @@ int run_study(const StudyOptions& options) {
     } catch (const std::runtime_error& e) {
       std::ofstream(log) << e.what() << '\n';  // reported below like a failed script
     }
-    summary["plots"] = {{"script", script.string()}, {"exit_code", code},
+    summary["plots"] = {{"script", script.string()},
+                        {"exit_code", code},
                         {"wall_seconds", seconds_since(plot_start)}};
     if (code != cli::kExitOk) {
       ok = false;

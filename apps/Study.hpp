@@ -1,11 +1,10 @@
 #pragma once
 // `ehlsim study`: the pressure-spike study of the paper with one command
 // (apps/Study.cpp), and what the subcommands of ehlsim share.
+#include <CLI/CLI.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <CLI/CLI.hpp>
 
 namespace cli {
 

@@ -12,22 +12,22 @@
 //
 // Each subcommand is a pair add_<name>_command (options) / run_<name> (action);
 // the study driver is in apps/Study.cpp.
+#include <fmt/format.h>
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include <omp.h>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
-
+#include "Study.hpp"
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
@@ -38,7 +38,6 @@
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
 #include "io/ThreadBudget.hpp"
-#include "Study.hpp"
 
 namespace {
 
@@ -90,16 +89,18 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
              c.L, c.lambda_bar, c.alpha_bar);
   if (c.physical) {
     const PhysicalCase& p = *c.physical;
-    fmt::print("  physical   R = {:.4g} m, m = {:.4g} kg, v0 = {:.4g} m/s, E' = {:.4g} Pa, "
-               "eta0 = {:.4g} Pa s, alpha = {:.4g} 1/Pa\n",
-               p.reduced_radius_m, p.mass_kg, p.impact_speed_m_s, p.reduced_modulus_Pa, p.eta0_Pa_s,
-               p.alpha_per_Pa);
-    fmt::print("  scales     delta* = {:.4g} m, a* = {:.4g} m, ph* = {:.4g} Pa, F* = {:.4g} N, "
-               "t_bar = {:.4g} s\n",
-               p.delta_star_m, p.a_star_m, p.ph_star_Pa, p.F_star_N, p.t_bar_s);
+    fmt::print(
+        "  physical   R = {:.4g} m, m = {:.4g} kg, v0 = {:.4g} m/s, E' = {:.4g} Pa, "
+        "eta0 = {:.4g} Pa s, alpha = {:.4g} 1/Pa\n",
+        p.reduced_radius_m, p.mass_kg, p.impact_speed_m_s, p.reduced_modulus_Pa, p.eta0_Pa_s,
+        p.alpha_per_Pa);
+    fmt::print(
+        "  scales     delta* = {:.4g} m, a* = {:.4g} m, ph* = {:.4g} Pa, F* = {:.4g} N, "
+        "t_bar = {:.4g} s\n",
+        p.delta_star_m, p.a_star_m, p.ph_star_Pa, p.F_star_N, p.t_bar_s);
   }
-  std::string lubricant = fmt::format("{}, {}", viscosity_model_text(c.viscosity),
-                                      density_model_text(c.density));
+  std::string lubricant =
+      fmt::format("{}, {}", viscosity_model_text(c.viscosity), density_model_text(c.density));
   if (c.viscosity == ViscosityModel::Roelands) {
     lubricant += fmt::format(" (eta0 = {:.4g} Pa s, z = {:.4g})", c.eta0_Pa_s, c.roelands_z);
   }
@@ -116,14 +117,16 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
   fmt::print("  time       dT = {:.6g}, {}, Delta0 = {:g}, V0 = {:g}\n", effective_time_step(c),
              std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
              c.Delta0, c.V0);
-  fmt::print("  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
-             "deformation {}, lines {}\n",
-             cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
-             c.coarsest_points, deformation_method_text(c.deformation),
-             c.relaxation.alternate_directions ? "along X and Y in turn" : "along X");
+  fmt::print(
+      "  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
+      "deformation {}, lines {}\n",
+      cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
+      c.coarsest_points, deformation_method_text(c.deformation),
+      c.relaxation.alternate_directions ? "along X and Y in turn" : "along X");
   fmt::print("  output     fields every {} steps{}\n", c.snapshot_every,
-             c.snapshot_times.empty() ? std::string()
-                                      : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));
+             c.snapshot_times.empty()
+                 ? std::string()
+                 : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));
   std::fflush(stdout);
 }
 
@@ -133,22 +136,25 @@ void print_summary(const RunSummary& s, const RunOutput& output) {
       fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
       break;
     case RunOutcome::AtRest:
-      fmt::print("at rest in the film at T = {:.6g}: no rebound (energy left {:.3g} of the "
-                 "impact energy, dDelta/dT at most {:.3g} V0 from now on)\n",
-                 s.T_final, s.final_energy, std::sqrt(s.final_energy));
+      fmt::print(
+          "at rest in the film at T = {:.6g}: no rebound (energy left {:.3g} of the "
+          "impact energy, dDelta/dT at most {:.3g} V0 from now on)\n",
+          s.T_final, s.final_energy, std::sqrt(s.final_energy));
       break;
     case RunOutcome::TEnd:
       fmt::print("no lift-off by T = {:.6g} (time.T_end)\n", s.T_final);
       break;
   }
-  fmt::print("max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
-             s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
-  fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps, output.snapshots_written(),
-             output.elapsed_seconds(), output.directory().string());
+  fmt::print(
+      "max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
+      s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
+  fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps,
+             output.snapshots_written(), output.elapsed_seconds(), output.directory().string());
   if (s.unconverged_steps > 0 || s.retried_steps > 0)
-    fmt::print("{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
-               "{} steps were solved again with more damping\n",
-               s.unconverged_steps, s.retried_steps);
+    fmt::print(
+        "{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
+        "{} steps were solved again with more damping\n",
+        s.unconverged_steps, s.retried_steps);
 }
 
 int run_impact(const ImpactOptions& options) {
@@ -180,8 +186,8 @@ int run_impact(const ImpactOptions& options) {
   }
 
   nlohmann::json invocation = {
-      {"config_file", options.config_file.empty() ? nlohmann::json(nullptr)
-                                                  : nlohmann::json(options.config_file)},
+      {"config_file",
+       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
       {"overrides", options.overrides},
       {"out", options.out_dir}};
   if (checkpoint)
@@ -258,7 +264,8 @@ int run_spike(const SpikeOptions& options) {
 }
 
 int run(int argc, char** argv) {
-  CLI::App app{"ehlsim: lubricated ball impact on a flat (elastohydrodynamic lubrication)", "ehlsim"};
+  CLI::App app{"ehlsim: lubricated ball impact on a flat (elastohydrodynamic lubrication)",
+               "ehlsim"};
   app.set_version_flag("--version", std::string("ehlsim ") + EHLSIM_VERSION);
   app.require_subcommand(1);
 

@@ -73,8 +73,23 @@ void BM_FftDeformationSetup(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_FftDeformation)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FftDeformationEstimate)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_MirroredFftDeformation)->Arg(129)->Arg(257)->Arg(513)->Arg(1025)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FftDeformation)
+    ->Arg(129)
+    ->Arg(257)
+    ->Arg(513)
+    ->Arg(1025)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FftDeformationEstimate)
+    ->Arg(129)
+    ->Arg(257)
+    ->Arg(513)
+    ->Arg(1025)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MirroredFftDeformation)
+    ->Arg(129)
+    ->Arg(257)
+    ->Arg(513)
+    ->Arg(1025)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DirectDeformation)->Arg(33)->Arg(65)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FftDeformationSetup)->Arg(257)->Arg(1025)->Unit(benchmark::kMillisecond);

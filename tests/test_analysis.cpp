@@ -15,7 +15,7 @@ namespace {
 
 using namespace ehlsim;
 
-constexpr int kPoints = 129;       // h = 3/128, the study's coarse grid
+constexpr int kPoints = 129;  // h = 3/128, the study's coarse grid
 constexpr double kHalfWidth = 1.5;
 
 /// A Hertz-like dome of radius A with a Gaussian bump (the spike) at R0.
@@ -87,8 +87,8 @@ TEST(SpikeAnalysis, ADomeWithoutBumpHasNoSpike) {
 
 TEST(SpikeAnalysis, SpikeMovingAtAKnownSpeed) {
   const Grid2D grid(kPoints, kHalfWidth);
-  const double dT = grid.h();   // as the solver: dT = h
-  const double speed = -0.8;    // the rebound spike's order of magnitude (docs/validation.md)
+  const double dT = grid.h();  // as the solver: dT = h
+  const double speed = -0.8;   // the rebound spike's order of magnitude (docs/validation.md)
   std::vector<double> T, R;
   for (int k = 0; k <= 16; ++k) {
     SyntheticSpike spike;

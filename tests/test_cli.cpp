@@ -1,10 +1,6 @@
 // The ehlsim command: exit codes and one-line error messages for bad input,
 // --help / --version, and one tiny real run.
 #include <gtest/gtest.h>
-
-#include "support/RunEhlsim.hpp"
-#include "support/TempDir.hpp"
-
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,11 +8,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include "support/RunEhlsim.hpp"
+#include "support/TempDir.hpp"
 
 namespace {
 
@@ -43,9 +41,9 @@ void expect_bad_input(const Result& r, const std::string& message) {
 TEST(Cli, UnknownKeyInFile) {
   TempDir dir;
   const std::string f = write_file(dir / "case.toml", "[case]\nMx = 20\n").string();
-  expect_bad_input(ehlsim("impact " + quote(f)),
-                   "unknown key 'case.Mx' (known keys in [case]: M, L, lambda_bar, alpha_bar) (" + f +
-                       ":2:6)");
+  expect_bad_input(
+      ehlsim("impact " + quote(f)),
+      "unknown key 'case.Mx' (known keys in [case]: M, L, lambda_bar, alpha_bar) (" + f + ":2:6)");
 }
 
 TEST(Cli, UnknownKeyInSet) {
@@ -54,8 +52,10 @@ TEST(Cli, UnknownKeyInSet) {
 }
 
 TEST(Cli, WrongType) {
-  expect_bad_input(ehlsim("impact --set case.M=abc"), "case.M = \"abc\": must be a number > 0 (--set)");
-  expect_bad_input(ehlsim("impact --set body.elastic=1"), "body.elastic = 1: must be true or false (--set)");
+  expect_bad_input(ehlsim("impact --set case.M=abc"),
+                   "case.M = \"abc\": must be a number > 0 (--set)");
+  expect_bad_input(ehlsim("impact --set body.elastic=1"),
+                   "body.elastic = 1: must be true or false (--set)");
 }
 
 TEST(Cli, OutOfRange) {
@@ -87,7 +87,8 @@ TEST(Cli, MalformedToml) {
 }
 
 TEST(Cli, BadCommandLine) {
-  for (const char* args : {"", "impact --bogus", "impact a.toml b.toml", "impact --set", "frobnicate"}) {
+  for (const char* args :
+       {"", "impact --bogus", "impact a.toml b.toml", "impact --set", "frobnicate"}) {
     SCOPED_TRACE(args);
     const Result r = ehlsim(args);
     EXPECT_EQ(r.exit_code, 2);
@@ -124,8 +125,8 @@ TEST(Cli, UsageDocumentsTheHelpVerbatim) {
   const Result help = ehlsim("impact --help");
   ASSERT_EQ(help.exit_code, 0);
   const std::string usage = read_file(fs::path(EHLSIM_SOURCE_DIR) / "docs" / "usage.md");
-  const std::string intro = "`./build/apps/ehlsim impact --help` (ehlsim " EHLSIM_VERSION
-                            "), verbatim:\n\n```text\n";
+  const std::string intro =
+      "`./build/apps/ehlsim impact --help` (ehlsim " EHLSIM_VERSION "), verbatim:\n\n```text\n";
   const std::size_t start = usage.find(intro);
   ASSERT_NE(start, std::string::npos) << "docs/usage.md: no verbatim --help block";
   const std::size_t body = start + intro.size();
@@ -146,8 +147,13 @@ TEST(Cli, TinyRun) {
   EXPECT_EQ(r.out, "");  // --quiet: nothing but errors
   EXPECT_EQ(r.err, "");
   const std::string csv = read_file(run / "timeseries.csv");
-  EXPECT_EQ(csv.rfind("T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual,attempts,work\n", 0), 0u);
-  EXPECT_GE(std::count(csv.begin(), csv.end(), '\n'), 3);  // header and at least 2 steps (dT = 0.09375)
+  EXPECT_EQ(
+      csv.rfind(
+          "T,Delta,dDelta_dT,force,h_center,h_min,p_center,p_max,cycles,residual,attempts,work\n",
+          0),
+      0u);
+  EXPECT_GE(std::count(csv.begin(), csv.end(), '\n'),
+            3);  // header and at least 2 steps (dT = 0.09375)
   EXPECT_TRUE(fs::exists(run / "fields.nc"));
   EXPECT_TRUE(fs::exists(run / "run.json"));
   for (const auto& entry : fs::directory_iterator(run)) {
@@ -159,14 +165,17 @@ TEST(Cli, RestartFromACheckpoint) {
   TempDir dir;
   const fs::path first = dir / "first";
   const fs::path second = dir / "second";
-  Result r = tiny_run(first, "--set body.elastic=false --set time.T_end=0.5 "
-                             "--set output.checkpoint_every=2");
+  Result r = tiny_run(first,
+                      "--set body.elastic=false --set time.T_end=0.5 "
+                      "--set output.checkpoint_every=2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const fs::path checkpoint = first / "checkpoint.nc";
   ASSERT_TRUE(fs::exists(checkpoint));
   // The steps after the checkpoint, with a changed solver setting and end time.
-  r = tiny_run(second, "--set body.elastic=false --set time.T_end=0.6 --set solver.max_cycles=30 "
-                       "--restart " + quote(checkpoint.string()));
+  r = tiny_run(second,
+               "--set body.elastic=false --set time.T_end=0.6 --set solver.max_cycles=30 "
+               "--restart " +
+                   quote(checkpoint.string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json run = nlohmann::json::parse(read_file(second / "run.json"));
   const int step = run.at("invocation").at("restart").at("step").get<int>();
@@ -176,14 +185,15 @@ TEST(Cli, RestartFromACheckpoint) {
   EXPECT_GT(std::stod(first_row), run.at("invocation").at("restart").at("T").get<double>());
 
   // Another case, or a file that is no checkpoint: exit 2 with the key or the file.
-  expect_bad_input(tiny_run(dir / "third", "--set body.elastic=true --restart " +
-                                               quote(checkpoint.string())),
-                   "body.elastic = true, but checkpoint '" + checkpoint.string() +
-                       "' was written with false (a restart continues the same case: only "
-                       "solver.*, output.*, spike.*, time.T_end and time.max_steps may change, "
-                       "solver.face_mean excepted)");
+  expect_bad_input(
+      tiny_run(dir / "third", "--set body.elastic=true --restart " + quote(checkpoint.string())),
+      "body.elastic = true, but checkpoint '" + checkpoint.string() +
+          "' was written with false (a restart continues the same case: only "
+          "solver.*, output.*, spike.*, time.T_end and time.max_steps may change, "
+          "solver.face_mean excepted)");
   const fs::path not_a_checkpoint = second / "timeseries.csv";
-  r = tiny_run(dir / "fourth", "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
+  r = tiny_run(dir / "fourth",
+               "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--restart: cannot read checkpoint '" + not_a_checkpoint.string()),
             std::string::npos)
@@ -193,14 +203,16 @@ TEST(Cli, RestartFromACheckpoint) {
 }
 
 TEST(Cli, BadSpikeKeys) {
-  expect_bad_input(ehlsim("impact --set spike.filter=median"),
-                   "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
+  expect_bad_input(
+      ehlsim("impact --set spike.filter=median"),
+      "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
   expect_bad_input(ehlsim("impact --set spike.smoothing_points=0"),
                    "spike.smoothing_points = 0: must be >= 1 (--set)");
   expect_bad_input(ehlsim("impact --set spike.cutoff_meshes=0.2"),
                    "spike.cutoff_meshes = 0.2: must be > 2 spike.resample_meshes = 0.25 (the "
                    "shortest wave the resampled profile carries) (--set)");
-  expect_bad_input(ehlsim("impact --set spike.min_height=2"), "spike.min_height = 2: must be in [0, 1] (--set)");
+  expect_bad_input(ehlsim("impact --set spike.min_height=2"),
+                   "spike.min_height = 2: must be in [0, 1] (--set)");
 }
 
 TEST(Cli, SpikeOnABadRunDirectory) {
@@ -211,8 +223,9 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   const std::string empty = (dir / "empty").string();
   fs::create_directories(empty);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
-                   "cannot read '" + empty + "/run.json': not a complete ehlsim run directory "
-                   "(run.json is written last, when the run has finished)");
+                   "cannot read '" + empty +
+                       "/run.json': not a complete ehlsim run directory "
+                       "(run.json is written last, when the run has finished)");
   // A run.json without fields.nc: the NetCDF error, on one line.
   write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
   const Result r = ehlsim("spike --quiet " + quote(empty));
@@ -231,7 +244,8 @@ TEST(Cli, SpikeFilesOfARun) {
   const std::string spike = read_file(run / "spike.csv");
   EXPECT_EQ(spike.rfind("T,R_s,P_s,V_s,A_dry,X_s,P_xs\n", 0), 0u);
   const std::string series = read_file(run / "timeseries.csv");
-  EXPECT_EQ(std::count(spike.begin(), spike.end(), '\n'), std::count(series.begin(), series.end(), '\n'));
+  EXPECT_EQ(std::count(spike.begin(), spike.end(), '\n'),
+            std::count(series.begin(), series.end(), '\n'));
   const Result offline = ehlsim("spike --quiet " + quote(run.string()));
   ASSERT_EQ(offline.exit_code, 0) << offline.err;
   for (const char* name : {"spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv"}) {
@@ -248,8 +262,9 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   const fs::path out = dir / "study";
   expect_bad_input(ehlsim("study --grid 100 --out " + quote(out.string())),
                    "grid.points = 100: must be 2^k + 1 between 9 and 4097 (--set)");
-  expect_bad_input(ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
-                   "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
+  expect_bad_input(
+      ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
+      "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -260,8 +275,8 @@ TEST(Cli, TinyStudy) {
   const fs::path out = dir / "study";
   const bool with_plots =
       std::system("/usr/bin/python3 -c 'import numpy, matplotlib' > /dev/null 2>&1") == 0;
-  const Result r = ehlsim("study --grid 33 --out " + quote(out.string()) +
-                          (with_plots ? "" : " --no-plots"));
+  const Result r =
+      ehlsim("study --grid 33 --out " + quote(out.string()) + (with_plots ? "" : " --no-plots"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const std::string summary = read_file(out / "study.json");
   for (const char* M : {"M10", "M20", "M50", "M100"}) {
@@ -283,9 +298,10 @@ TEST(Cli, TinyStudy) {
 
 TEST(Cli, RunEchoesTheParameters) {
   TempDir dir;
-  const Result r = ehlsim("impact --set grid.points=33 --set solver.coarsest_points=9 "
-                          "--set body.elastic=false --set time.T_end=0.1 --set case.M=20 --out " +
-                          quote((dir / "run").string()));
+  const Result r = ehlsim(
+      "impact --set grid.points=33 --set solver.coarsest_points=9 "
+      "--set body.elastic=false --set time.T_end=0.1 --set case.M=20 --out " +
+      quote((dir / "run").string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("M = 20, L = 10"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("33^2"), std::string::npos) << r.out;

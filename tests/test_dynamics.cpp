@@ -21,8 +21,8 @@ namespace {
 //   T_c = 2 Int_0^{D_m} dx / sqrt(1 - (4/5) x^(5/2)) = 2 D_m (2/5) B(2/5, 1/2)
 // (Johnson: 2.9432 D_m).  Contact starts at T = 1 (uniform approach from 1).
 const double kDeltaMin = -std::pow(1.25, 0.4);
-const double kContactTime = 2.0 * std::pow(1.25, 0.4) * 0.4 * std::tgamma(0.4) *
-                            std::tgamma(0.5) / std::tgamma(0.9);
+const double kContactTime =
+    2.0 * std::pow(1.25, 0.4) * 0.4 * std::tgamma(0.4) * std::tgamma(0.5) / std::tgamma(0.9);
 constexpr double kContactStart = 1.0;
 
 // Delta at time T by linear interpolation of the recorded trajectory.
@@ -59,8 +59,7 @@ TEST(Newmark, DeltaIsLinearInTheNewForce) {
   const BallState s{1.0, -0.3, 0.4, 0.9};
   const double f0 = scheme.delta_for_force(s, 1.0), f1 = scheme.delta_for_force(s, 3.0);
   EXPECT_NEAR((f1 - f0) / 2.0, scheme.d_delta_d_force(), 1e-15);
-  EXPECT_NEAR(scheme.d_delta_d_force(), 0.25 * 0.02 * 0.02 * 3.0 / (2.0 * std::numbers::pi),
-              1e-18);
+  EXPECT_NEAR(scheme.d_delta_d_force(), 0.25 * 0.02 * 0.02 * 3.0 / (2.0 * std::numbers::pi), 1e-18);
   EXPECT_EQ(scheme.advance(s, 3.0).Delta, f1);
   EXPECT_THROW(Newmark(0.0), std::invalid_argument);
   EXPECT_THROW(Newmark(-1e-3), std::invalid_argument);
@@ -74,7 +73,9 @@ TEST(Newmark, ConservesEnergyOfLinearSpring) {
   const double stiffness = w2 / kForceToAcceleration;  // force = -stiffness Delta
   const Newmark scheme(dT);
   BallState s{0.0, 1.0, -1.0, -w2 * 1.0};
-  const auto energy = [w2](const BallState& b) { return 0.5 * b.V * b.V + 0.5 * w2 * b.Delta * b.Delta; };
+  const auto energy = [w2](const BallState& b) {
+    return 0.5 * b.V * b.V + 0.5 * w2 * b.Delta * b.Delta;
+  };
   const double e0 = energy(s);
   for (int k = 0; k < 1000; ++k) {
     // Delta_new = base + c (-stiffness Delta_new), solved in closed form.
@@ -105,7 +106,7 @@ TEST(DryHertz, ReferenceImpact) {
   EXPECT_NEAR(r.T_lift_off - r.T_contact, kContactTime, tol);
   EXPECT_NEAR(r.Delta_min, kDeltaMin, tol);
   EXPECT_NEAR(r.T_Delta_min, kContactStart + 0.5 * kContactTime, tol);  // symmetric impact
-  EXPECT_NEAR(r.rebound_speed, 1.0, tol);                                 // no loss
+  EXPECT_NEAR(r.rebound_speed, 1.0, tol);                               // no loss
   EXPECT_NEAR(r.impulse, 2.0, tol);
   // Trapezoidal impulse = change of V exactly (gamma = 1/2), up to rounding.
   EXPECT_NEAR(r.impulse, r.rebound_speed + 1.0, 1e-12);
@@ -124,8 +125,9 @@ TEST(DryHertz, ContactRadiusHistory) {
   // model.md, A(T) = sqrt(-Delta(T)) to 4 digits.  Linear interpolation of
   // the dT = 1e-3 trajectory adds < 2e-7 to Delta, i.e. < 1e-6 to A >= 0.13.
   const DryImpact r = simulate_dry_hertz(1.0, 1.0, 1e-3, 10.0);
-  const std::vector<std::pair<double, double>> reference = {
-      {1.5, 0.7000}, {2.609, 1.0456}, {3.223, 0.9424}, {3.574, 0.7874}, {4.0, 0.4664}, {4.2, 0.1344}};
+  const std::vector<std::pair<double, double>> reference = {{1.5, 0.7000},   {2.609, 1.0456},
+                                                            {3.223, 0.9424}, {3.574, 0.7874},
+                                                            {4.0, 0.4664},   {4.2, 0.1344}};
   for (const auto& [T, A] : reference)
     EXPECT_NEAR(dry_contact_radius(delta_at(r, T)), A, 5e-5 + 1e-6) << "T = " << T;
 }
@@ -164,5 +166,6 @@ TEST(DryHertz, NoContactWhenMovingAway) {
   EXPECT_NEAR(r.T.back(), 2.0, 1e-12);
   EXPECT_NEAR(r.Delta.back(), 3.0, 1e-12);
   EXPECT_EQ(r.impulse, 0.0);
-  EXPECT_THROW((void)simulate_dry_hertz(1.0, 1.0, 0.01, std::numeric_limits<double>::infinity()), std::invalid_argument);
+  EXPECT_THROW((void)simulate_dry_hertz(1.0, 1.0, 0.01, std::numeric_limits<double>::infinity()),
+               std::invalid_argument);
 }

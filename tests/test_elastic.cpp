@@ -1,7 +1,6 @@
 // Elastic half-space deformation: cell kernel, direct and FFT evaluation,
 // analytic solutions (model.md, "Analytic checks").
 #include <gtest/gtest.h>
-
 #include <omp.h>
 
 #include <cmath>
@@ -89,14 +88,14 @@ TEST(CellKernel, MatchesQuadratureOfOneOverR) {
   // 20-point Gauss-Legendre per direction of (2/pi^2)/|r - r'| over a cell
   // that does not contain the point: the integrand is analytic there, so the
   // quadrature is accurate to well below 1e-10 at distance >= 1.5 cells.
-  const std::vector<double> xg = {
-      0.0765265211334973, 0.2277858511416451, 0.3737060887154195, 0.5108670019508271,
-      0.6360536807265150, 0.7463319064601508, 0.8391169718222188, 0.9122344282513259,
-      0.9639719272779138, 0.9931285991850949};
-  const std::vector<double> wg = {
-      0.1527533871307258, 0.1491729864726037, 0.1420961093183820, 0.1316886384491766,
-      0.1181945319615184, 0.1019301198172404, 0.0832767415767048, 0.0626720483341091,
-      0.0406014298003869, 0.0176140071391521};
+  const std::vector<double> xg = {0.0765265211334973, 0.2277858511416451, 0.3737060887154195,
+                                  0.5108670019508271, 0.6360536807265150, 0.7463319064601508,
+                                  0.8391169718222188, 0.9122344282513259, 0.9639719272779138,
+                                  0.9931285991850949};
+  const std::vector<double> wg = {0.1527533871307258, 0.1491729864726037, 0.1420961093183820,
+                                  0.1316886384491766, 0.1181945319615184, 0.1019301198172404,
+                                  0.0832767415767048, 0.0626720483341091, 0.0406014298003869,
+                                  0.0176140071391521};
   const double h = 0.5;
   for (const auto& [x, y] :
        std::vector<std::pair<double, double>>{{1.0, 0.0}, {1.0, 0.5}, {0.75, 1.5}, {2.0, 2.0}}) {
@@ -145,10 +144,20 @@ TEST(CellKernel, FarFieldExpansion) {
   const Grid2D g(1025, kHalfWidth);
   const KernelTable K(g);
   const double h = g.h();
-  struct Offset { int a, b; };
-  for (const auto [a, b] : std::vector<Offset>{{20, 0}, {0, -20}, {20, 20}, {100, 0}, {37, 85},
-                                               {500, 500}, {1005, 686}, {-686, 1005},
-                                               {1024, 0}, {1024, 1024}, {700, -1024}}) {
+  struct Offset {
+    int a, b;
+  };
+  for (const auto [a, b] : std::vector<Offset>{{20, 0},
+                                               {0, -20},
+                                               {20, 20},
+                                               {100, 0},
+                                               {37, 85},
+                                               {500, 500},
+                                               {1005, 686},
+                                               {-686, 1005},
+                                               {1024, 0},
+                                               {1024, 1024},
+                                               {700, -1024}}) {
     const double tol = std::hypot(a, b) < 500.0 ? 1e-10 : 1e-11;
     EXPECT_NEAR(K(a, b) / far_field_kernel(a * h, b * h, h), 1.0, tol) << a << ", " << b;
   }

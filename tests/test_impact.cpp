@@ -48,13 +48,13 @@ struct RunResult {
   RunSummary summary;
   double min_pressure = 0.0;  ///< minimum of the P field over every point and step
   int min_pressure_step = 0;
-  Field last_P, last_H;       ///< fields of the last step
+  Field last_P, last_H;  ///< fields of the last step
   /// Per step: radius of the pressure maximum along Y = 0, X >= 0 (the spike).
   std::vector<double> spike_radius;
   /// residuals[step][cycle]: the cycle monitor (cycle 0 = before the first cycle).
   std::vector<std::vector<double>> residuals;
   double seconds = 0.0;
-  std::string error;          ///< non-empty when run() threw
+  std::string error;  ///< non-empty when run() threw
 };
 
 /// Records every step, the fields of the last one and the minimum pressure.
@@ -231,9 +231,9 @@ FactorStats reduction_factors(const RunResult& run, double T_lo, double T_hi,
 }
 
 void report_factors(const std::string& name, const FactorStats& s) {
-  std::cout << "  " << name << ": " << s.count << " cycles, geometric mean " << str(s.geometric_mean, 3)
-            << ", median " << str(s.median, 3) << ", 90th percentile " << str(s.p90, 3)
-            << ", max " << str(s.max, 3) << "\n";
+  std::cout << "  " << name << ": " << s.count << " cycles, geometric mean "
+            << str(s.geometric_mean, 3) << ", median " << str(s.median, 3) << ", 90th percentile "
+            << str(s.p90, 3) << ", max " << str(s.max, 3) << "\n";
   ::testing::Test::RecordProperty(name + "_geometric_mean", str(s.geometric_mean, 3));
   ::testing::Test::RecordProperty(name + "_median", str(s.median, 3));
   ::testing::Test::RecordProperty(name + "_p90", str(s.p90, 3));
@@ -308,7 +308,7 @@ const RunResult& convergence_run_129() {
   return run;
 }
 struct ConvergenceRuns {
-  RunResult n65, n129, n257;  // dT = h = 3/64, 3/128, 3/256
+  RunResult n65, n129, n257;       // dT = h = 3/64, 3/128, 3/256
   RunResult n65_dT128, n65_dT256;  // 65^2 with dT = 3/128, 3/256
   RunResult n129_dT256;            // 129^2 with dT = 3/256
 };
@@ -326,10 +326,10 @@ const ConvergenceRuns& convergence_runs() {
   return runs;
 }
 
-#define ASSERT_RAN(run)                                              \
-  do {                                                               \
+#define ASSERT_RAN(run)                                                \
+  do {                                                                 \
     ASSERT_TRUE((run).error.empty()) << "run failed: " << (run).error; \
-    ASSERT_GE((run).records.size(), 3u);                             \
+    ASSERT_GE((run).records.size(), 3u);                               \
   } while (0)
 
 }  // namespace
@@ -358,16 +358,20 @@ TEST(RigidSqueezeFilm, IsoviscousPressureMatchesTheAnalyticProfile) {
   const int n = run.grid.n, j = (n - 1) / 2;  // the row Y = 0
   for (int i = 0; i < n; ++i) {
     const double x = run.grid.x(i), p = run.last_P(i, j);
-    err_bdf = std::max(err_bdf, std::abs(p - disc_pressure(lambda, D, Delta, std::abs(x), INFINITY)) / P0);
-    err_newmark =
-        std::max(err_newmark, std::abs(p - disc_pressure(lambda, V, Delta, std::abs(x), INFINITY)) / P0);
-    below_inner = std::max(below_inner, (disc_pressure(lambda, D, Delta, std::abs(x), R1) - p) / P0);
-    above_outer = std::max(above_outer, (p - disc_pressure(lambda, D, Delta, std::abs(x), R2)) / P0);
+    err_bdf = std::max(err_bdf,
+                       std::abs(p - disc_pressure(lambda, D, Delta, std::abs(x), INFINITY)) / P0);
+    err_newmark = std::max(
+        err_newmark, std::abs(p - disc_pressure(lambda, V, Delta, std::abs(x), INFINITY)) / P0);
+    below_inner =
+        std::max(below_inner, (disc_pressure(lambda, D, Delta, std::abs(x), R1) - p) / P0);
+    above_outer =
+        std::max(above_outer, (p - disc_pressure(lambda, D, Delta, std::abs(x), R2)) / P0);
   }
   const double edge = std::pow(Delta / (Delta + 0.5 * R1 * R1), 2);
   const double bdf_vs_newmark = std::abs(D - V) / std::abs(V);
   const double F = last.force;
-  const double F_inner = disc_force(lambda, D, Delta, R1), F_outer = disc_force(lambda, D, Delta, R2);
+  const double F_inner = disc_force(lambda, D, Delta, R1),
+               F_outer = disc_force(lambda, D, Delta, R2);
   const double F_unbounded = 0.5 * kPi * lambda * (-D) / Delta;
 
   std::cout << "Rigid isoviscous squeeze film, lambda_bar = 0.5, 257^2 on [-4, 4]^2, T = " << last.T
@@ -521,8 +525,8 @@ TEST(RigidSqueezeFilm, BallFollowsTheSqueezeFilmLawAndStops) {
       const double lo = 0.75 * lambda * (G_disc(first.Delta, R1) - G_disc(r.Delta, R1));
       const double hi = 0.75 * lambda * (G_disc(first.Delta, R2) - G_disc(r.Delta, R2));
       const double allowance = kTrajectoryAllowance * std::abs(hi);
-      worst_margin = std::min({worst_margin, (travelled - lo) / std::abs(hi),
-                               (hi - travelled) / std::abs(hi)});
+      worst_margin = std::min(
+          {worst_margin, (travelled - lo) / std::abs(hi), (hi - travelled) / std::abs(hi)});
       const double unbounded = 0.75 * lambda * std::log(first.Delta / r.Delta);
       max_dev_unbounded = std::max(max_dev_unbounded, std::abs(travelled - unbounded));
       EXPECT_GE(travelled, lo - allowance) << "step " << r.step << " T = " << r.T;
@@ -647,8 +651,10 @@ TEST(LubricatedImpact, M100L10ReachesLiftOffWithThePhysicsOfModelMd) {
   report("retried_steps", s.retried_steps);
   report("steps", s.steps);
   ASSERT_TRUE(s.lifted_off) << "no lift-off before T = " << s.T_final;
-  std::cout << "  last steps (T, Delta, dDelta/dT, force, h_center, h_min, p_center, p_max, cycles, residual):\n";
-  for (std::size_t k = run.records.size() >= 6 ? run.records.size() - 6 : 0; k < run.records.size(); ++k) {
+  std::cout << "  last steps (T, Delta, dDelta/dT, force, h_center, h_min, p_center, p_max, "
+               "cycles, residual):\n";
+  for (std::size_t k = run.records.size() >= 6 ? run.records.size() - 6 : 0; k < run.records.size();
+       ++k) {
     const StepRecord& r = run.records[k];
     std::cout << "    " << r.T << "  " << r.Delta << "  " << r.dDelta_dT << "  " << r.force << "  "
               << r.h_center << "  " << r.h_min << "  " << r.p_center << "  " << r.p_max << "  "
@@ -761,14 +767,15 @@ TEST(LubricatedImpact, M100L10HistoriesAreSmooth) {
     const char* name;
     double StepRecord::*field;
   };
-  for (const History h : {History{"p_center", &StepRecord::p_center},
-                          History{"h_center", &StepRecord::h_center},
-                          History{"force", &StepRecord::force}}) {
+  for (const History h :
+       {History{"p_center", &StepRecord::p_center}, History{"h_center", &StepRecord::h_center},
+        History{"force", &StepRecord::force}}) {
     std::vector<double> x;
     for (const StepRecord& r : run.records)
       if (r.T <= kResolvedUntil + 1e-9) x.push_back(r.*(h.field));
     ASSERT_GT(x.size(), 10u);
-    const double range = *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
+    const double range =
+        *std::max_element(x.begin(), x.end()) - *std::min_element(x.begin(), x.end());
     double max_d2 = 0.0;
     int sign_changes = 0;
     double last_significant = 0.0;
@@ -854,7 +861,8 @@ TEST(ImpactGridConvergence, SecondOrderInSpaceAndTime) {
   }
   {
     SCOPED_TRACE("(a) dT = h");
-    const StepRecord &a = c.n65.records.back(), &b = c.n129.records.back(), &d = c.n257.records.back();
+    const StepRecord &a = c.n65.records.back(), &b = c.n129.records.back(),
+                     &d = c.n257.records.back();
     std::cout << "Grid convergence at T = 0.75, dT = h\n";
     const std::array<std::string, 3> grids{"65", "129", "257"};
     report_order("conv", "h_center", grids, a, b, d, &StepRecord::h_center);

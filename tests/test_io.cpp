@@ -2,10 +2,7 @@
 // echo), the atomic writers (CSV, NetCDF, JSON), the progress line and the
 // RunOutput observer.
 #include <gtest/gtest.h>
-
-#include "support/SteelBall.hpp"
-#include "support/TempDir.hpp"
-
+#include <netcdf.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,14 +12,12 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <netcdf.h>
-#include <nlohmann/json.hpp>
 
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
@@ -36,6 +31,8 @@
 #include "io/SpikeWriter.hpp"
 #include "io/TimeSeriesWriter.hpp"
 #include "rheology/Lubricant.hpp"
+#include "support/SteelBall.hpp"
+#include "support/TempDir.hpp"
 
 namespace ehlsim {
 namespace {
@@ -65,13 +62,15 @@ std::string fmt_double(double v) {
 
 std::vector<std::string> files_in(const fs::path& dir) {
   std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  for (const auto& entry : fs::directory_iterator(dir))
+    names.push_back(entry.path().filename().string());
   std::sort(names.begin(), names.end());
   return names;
 }
 
 /// The message of the ConfigError that load_config throws ("" if none).
-std::string config_error(const std::optional<fs::path>& file, const std::vector<std::string>& sets) {
+std::string config_error(const std::optional<fs::path>& file,
+                         const std::vector<std::string>& sets) {
   try {
     (void)load_config(file, sets);
   } catch (const ConfigError& e) {
@@ -80,7 +79,9 @@ std::string config_error(const std::optional<fs::path>& file, const std::vector<
   return "";
 }
 
-std::string set_error(const std::vector<std::string>& sets) { return config_error(std::nullopt, sets); }
+std::string set_error(const std::vector<std::string>& sets) {
+  return config_error(std::nullopt, sets);
+}
 
 // ---------------------------------------------------------------------------
 // Registry
@@ -110,7 +111,8 @@ TEST(Registry, HelpListsEveryKeyWithDefaultAndRange) {
     EXPECT_NE(help.find(line), std::string::npos);
     EXPECT_NE(help.find(spec.allowed()), std::string::npos);
   }
-  EXPECT_NE(help.find("grid.points = 257  (integer, 2^k + 1 between 9 and 4097)"), std::string::npos);
+  EXPECT_NE(help.find("grid.points = 257  (integer, 2^k + 1 between 9 and 4097)"),
+            std::string::npos);
   EXPECT_NE(help.find("case.M = 100  (float, > 0)"), std::string::npos);
   EXPECT_NE(help.find("lubricant.viscosity = \"barus\"  (string, one of \"barus\", \"roelands\")"),
             std::string::npos);
@@ -225,10 +227,11 @@ deformation = "direct"
 }
 
 TEST(Registry, SetOverridesUseTomlValueSyntax) {
-  const ImpactConfig c = load_config(
-      std::nullopt, {"case.M=20", "lubricant.viscosity=roelands", "lubricant.eta0=0.04",
-                     "lubricant.ph_star=1e9", "body.elastic=false", "output.snapshot_times=[1, 2.5]",
-                     "solver.cycle=\"W\"", " grid.points = 65 ", "time.T_end=inf"});
+  const ImpactConfig c =
+      load_config(std::nullopt,
+                  {"case.M=20", "lubricant.viscosity=roelands", "lubricant.eta0=0.04",
+                   "lubricant.ph_star=1e9", "body.elastic=false", "output.snapshot_times=[1, 2.5]",
+                   "solver.cycle=\"W\"", " grid.points = 65 ", "time.T_end=inf"});
   EXPECT_EQ(c.M, 20.0);
   EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
   EXPECT_FALSE(c.elastic);
@@ -290,7 +293,8 @@ TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
               std::string("grid.points = ") + bad + ": must be 2^k + 1 between 9 and 4097 (--set)");
   }
   for (const int good : {9, 17, 33, 4097}) {
-    EXPECT_EQ(load_config(std::nullopt, {"grid.points=" + std::to_string(good), "solver.coarsest_points=5"})
+    EXPECT_EQ(load_config(std::nullopt,
+                          {"grid.points=" + std::to_string(good), "solver.coarsest_points=5"})
                   .grid_points,
               good);
   }
@@ -299,22 +303,23 @@ TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
   EXPECT_EQ(set_error({"grid.points=33", "solver.coarsest_points=65"}),
             "solver.coarsest_points = 65: must be <= grid.points (33) (--set)");
   // The default coarsest level (17) does not fit a 9-point grid.
-  EXPECT_EQ(set_error({"grid.points=9"}),
-            "solver.coarsest_points: must be <= grid.points (9)");
+  EXPECT_EQ(set_error({"grid.points=9"}), "solver.coarsest_points: must be <= grid.points (9)");
 }
 
 TEST(RegistryErrors, WrongType) {
   EXPECT_EQ(set_error({"case.M=abc"}), "case.M = \"abc\": must be a number > 0 (--set)");
   EXPECT_EQ(set_error({"case.M=\"20\""}), "case.M = \"20\": must be a number > 0 (--set)");
   EXPECT_EQ(set_error({"body.elastic=3"}), "body.elastic = 3: must be true or false (--set)");
-  EXPECT_EQ(set_error({"body.elastic=False"}), "body.elastic = \"False\": must be true or false (--set)");
+  EXPECT_EQ(set_error({"body.elastic=False"}),
+            "body.elastic = \"False\": must be true or false (--set)");
   EXPECT_EQ(set_error({"grid.points=2.5"}),
             "grid.points = 2.5: must be an integer 2^k + 1 between 9 and 4097 (--set)");
   EXPECT_EQ(set_error({"output.snapshot_every=true"}),
             "output.snapshot_every = true: must be an integer >= 1 (--set)");
   EXPECT_EQ(set_error({"lubricant.viscosity=sae30"}),
             "lubricant.viscosity = \"sae30\": must be one of \"barus\", \"roelands\" (--set)");
-  EXPECT_EQ(set_error({"solver.cycle=F"}), "solver.cycle = \"F\": must be one of \"V\", \"W\" (--set)");
+  EXPECT_EQ(set_error({"solver.cycle=F"}),
+            "solver.cycle = \"F\": must be one of \"V\", \"W\" (--set)");
   EXPECT_EQ(set_error({"output.snapshot_times=[1, \"x\"]"}),
             "output.snapshot_times = [1, \"x\"]: must be an array of numbers >= 0 (--set)");
 }
@@ -337,13 +342,15 @@ TEST(RegistryErrors, UnknownKeysAndSections) {
   TempDir dir;
   const std::string f = (dir / "bad.toml").string();
   write_file(f, "[case]\nM = 20\n\n[cse]\nL = 3\n");
-  EXPECT_EQ(config_error(f, {}), "unknown key 'cse.L' (unknown section [cse]; " + sections + ") (" + f + ":5:5)");
+  EXPECT_EQ(config_error(f, {}),
+            "unknown key 'cse.L' (unknown section [cse]; " + sections + ") (" + f + ":5:5)");
   write_file(f, "[case]\nM = 20\n[empty]\n");
   EXPECT_EQ(config_error(f, {}), "unknown section '[empty]' (" + sections + ") (" + f + ":3:1)");
   write_file(f, "case = 3\n");
   EXPECT_EQ(config_error(f, {}), "case = 3: must be a table (section [case]) (" + f + ":1:8)");
   write_file(f, "[grid]\npoints = 100\n");
-  EXPECT_EQ(config_error(f, {}), "grid.points = 100: must be 2^k + 1 between 9 and 4097 (" + f + ":2:10)");
+  EXPECT_EQ(config_error(f, {}),
+            "grid.points = 100: must be 2^k + 1 between 9 and 4097 (" + f + ":2:10)");
 }
 
 TEST(RegistryErrors, UnreadableAndMalformedFiles) {
@@ -362,28 +369,33 @@ TEST(RegistryErrors, UnreadableAndMalformedFiles) {
 }
 
 TEST(RegistryErrors, InconsistentCombinations) {
-  EXPECT_EQ(set_error({"case.M=20", "case.lambda_bar=0.5"}),
-            "case.lambda_bar = 0.5: cannot be given together with case.M (give one of them) (--set)");
+  EXPECT_EQ(
+      set_error({"case.M=20", "case.lambda_bar=0.5"}),
+      "case.lambda_bar = 0.5: cannot be given together with case.M (give one of them) (--set)");
   EXPECT_EQ(set_error({"case.L=2", "case.alpha_bar=5"}),
             "case.alpha_bar = 5: cannot be given together with case.L (give one of them) (--set)");
-  EXPECT_EQ(set_error({"solver.pre_sweeps=0", "solver.post_sweeps=0"}),
-            "solver.post_sweeps = 0: solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are 0 "
-            "and 0) (--set)");
+  EXPECT_EQ(
+      set_error({"solver.pre_sweeps=0", "solver.post_sweeps=0"}),
+      "solver.post_sweeps = 0: solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are 0 "
+      "and 0) (--set)");
   EXPECT_EQ(set_error({"lubricant.viscosity=roelands"}),
             "lubricant.ph_star is required by lubricant.viscosity = \"roelands\" (reference Hertz "
             "pressure [Pa]; or give a [physical] section)");
   EXPECT_EQ(set_error({"lubricant.density=dowson-higginson"}),
             "lubricant.ph_star is required by lubricant.density = \"dowson-higginson\" (reference "
             "Hertz pressure [Pa]; or give a [physical] section)");
-  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9"}),
-            "lubricant.eta0 is required by lubricant.viscosity = \"roelands\" (ambient viscosity [Pa "
-            "s]; or give a [physical] section)");
-  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=1e-5"}),
-            "lubricant.eta0 = 1e-05: must be > 6.31499e-05 Pa s for the Roelands law (ln(eta0) + "
-            "9.67 > 0) (--set)");
-  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=0.04",
-                       "lubricant.z=0.6", "lubricant.alpha=2e-8"}),
-            "lubricant.alpha = 2e-08: give either lubricant.z or lubricant.alpha, not both (--set)");
+  EXPECT_EQ(
+      set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9"}),
+      "lubricant.eta0 is required by lubricant.viscosity = \"roelands\" (ambient viscosity [Pa "
+      "s]; or give a [physical] section)");
+  EXPECT_EQ(
+      set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=1e-5"}),
+      "lubricant.eta0 = 1e-05: must be > 6.31499e-05 Pa s for the Roelands law (ln(eta0) + "
+      "9.67 > 0) (--set)");
+  EXPECT_EQ(
+      set_error({"lubricant.viscosity=roelands", "lubricant.ph_star=1e9", "lubricant.eta0=0.04",
+                 "lubricant.z=0.6", "lubricant.alpha=2e-8"}),
+      "lubricant.alpha = 2e-08: give either lubricant.z or lubricant.alpha, not both (--set)");
 }
 
 // ---------------------------------------------------------------------------
@@ -423,10 +435,10 @@ TEST(Physical, ComputesMoesParametersAndScales) {
 
   // The same case with the reduced inputs.
   const ImpactConfig r = load_config(
-      std::nullopt, {"physical.reduced_radius=0.01", "physical.ball_mass=" + fmt_double(p.mass_kg),
-                     "physical.impact_speed=0.1",
-                     "physical.reduced_modulus=" + fmt_double(p.reduced_modulus_Pa),
-                     "physical.eta0=0.04", "physical.alpha=2e-8"});
+      std::nullopt,
+      {"physical.reduced_radius=0.01", "physical.ball_mass=" + fmt_double(p.mass_kg),
+       "physical.impact_speed=0.1", "physical.reduced_modulus=" + fmt_double(p.reduced_modulus_Pa),
+       "physical.eta0=0.04", "physical.alpha=2e-8"});
   EXPECT_DOUBLE_EQ(r.M, c.M);
   EXPECT_DOUBLE_EQ(r.L, c.L);
 
@@ -448,19 +460,23 @@ TEST(Physical, ErrorsNameTheKey) {
             "physical.reduced_radius, not both (--set)");
   EXPECT_EQ(config_error(f, {"physical.reduced_modulus=2e11"}),
             "physical.E1 = 210000000000: give either physical.reduced_modulus or E1, nu1, E2, nu2, "
-            "not both (" + f + ":5:6)");
-  EXPECT_EQ(config_error(f, {"lubricant.ph_star=1e9"}),
-            "lubricant.ph_star = 1000000000: is given by the [physical] section; remove one of them "
-            "(--set)");
+            "not both (" +
+                f + ":5:6)");
+  EXPECT_EQ(
+      config_error(f, {"lubricant.ph_star=1e9"}),
+      "lubricant.ph_star = 1000000000: is given by the [physical] section; remove one of them "
+      "(--set)");
   EXPECT_EQ(set_error({"physical.ball_radius=0.01"}),
             "physical.ball_mass (or physical.ball_density) is required with a [physical] section");
   EXPECT_EQ(set_error({"physical.ball_radius=0.01", "physical.ball_mass=0.03"}),
             "physical.impact_speed is required with a [physical] section");
-  EXPECT_EQ(set_error({"physical.ball_radius=0.01", "physical.ball_mass=0.03",
-                       "physical.impact_speed=1", "physical.E1=2e11"}),
-            "physical.nu1 is required with a [physical] section (or give physical.reduced_modulus)");
-  EXPECT_EQ(set_error({"physical.rho0=870"}),
-            "physical.ball_radius (or physical.reduced_radius) is required with a [physical] section");
+  EXPECT_EQ(
+      set_error({"physical.ball_radius=0.01", "physical.ball_mass=0.03", "physical.impact_speed=1",
+                 "physical.E1=2e11"}),
+      "physical.nu1 is required with a [physical] section (or give physical.reduced_modulus)");
+  EXPECT_EQ(
+      set_error({"physical.rho0=870"}),
+      "physical.ball_radius (or physical.reduced_radius) is required with a [physical] section");
 }
 
 TEST(Examples, AllExamplesLoad) {
@@ -511,7 +527,8 @@ TEST(Echo, EffectiveParametersUseRegistryKeys) {
   EXPECT_EQ(p["lubricant"]["viscosity"], "barus");
   EXPECT_NEAR(p["physical"]["reduced_radius"].get<double>(), 0.01, 1e-15);
   EXPECT_GT(p["scales"]["ph_star_Pa"].get<double>(), 1e9);
-  EXPECT_EQ(effective_parameters_json(load_config(std::nullopt, {"time.T_end=3"}))["time"]["T_end"], 3.0);
+  EXPECT_EQ(effective_parameters_json(load_config(std::nullopt, {"time.T_end=3"}))["time"]["T_end"],
+            3.0);
 }
 
 // ---------------------------------------------------------------------------
@@ -560,11 +577,13 @@ TEST(Writers, NothingLeftWhenNotCommitted) {
   TempDir dir;
   try {
     TimeSeriesWriter series(dir / "timeseries.csv");
-    FieldWriter fields(dir / "fields.nc", Grid2D(9, 1.5), effective_parameters_json(ImpactConfig{}));
+    FieldWriter fields(dir / "fields.nc", Grid2D(9, 1.5),
+                       effective_parameters_json(ImpactConfig{}));
     series.append(record(1, 0.5));
     Grid2D grid(9, 1.5);
     fields.append(0.5, Field(grid, 1.0), Field(grid, 2.0));
-    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"fields.nc.part", "timeseries.csv.part"}));
+    EXPECT_EQ(files_in(dir.path()),
+              (std::vector<std::string>{"fields.nc.part", "timeseries.csv.part"}));
     throw std::runtime_error("solver failed");
   } catch (const std::runtime_error&) {
   }
@@ -592,7 +611,8 @@ std::string text_attribute(int ncid, int var, const char* name) {
 TEST(Writers, NetcdfRoundTrip) {
   TempDir dir;
   const Grid2D grid(9, 1.5);
-  const ImpactConfig config = load_config(std::nullopt, {"case.M=20", "grid.points=9", "solver.coarsest_points=5"});
+  const ImpactConfig config =
+      load_config(std::nullopt, {"case.M=20", "grid.points=9", "solver.coarsest_points=5"});
   Field P(grid);
   Field H(grid);
   for (int j = 0; j < grid.n; ++j) {
@@ -741,7 +761,10 @@ TEST(Checkpoint, RoundTripIsExact) {
   EXPECT_EQ(r.summary.unconverged_steps, 3);
   EXPECT_EQ(r.summary.retried_steps, 5);
   const std::array<std::pair<const Field*, const Field*>, 4> fields = {
-      {{&r.P, &s.P}, {&r.P_before, &s.P_before}, {&r.rhoH, &s.rhoH}, {&r.rhoH_before, &s.rhoH_before}}};
+      {{&r.P, &s.P},
+       {&r.P_before, &s.P_before},
+       {&r.rhoH, &s.rhoH},
+       {&r.rhoH_before, &s.rhoH_before}}};
   for (const auto& [read, written] : fields) {
     ASSERT_EQ(read->n(), 17);
     for (std::size_t k = 0; k < read->size(); ++k) ASSERT_EQ((*read)[k], (*written)[k]) << k;
@@ -805,8 +828,10 @@ TEST(Progress, EndTimeEstimate) {
   const double margin = kLiftOffMargin * kDryContactDuration;
   EXPECT_EQ(estimate_end_time(0.5, 0.5, -1.0, 3.0, 1.0, 1.0), 3.0);  // finite T_end
   // Before the rebound: dry contact from Delta0/V0, plus its duration and the margin.
-  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 0.5, -1.0, inf, 1.0, 1.0), 1.0 + kDryContactDuration + margin);
-  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 1.5, -0.5, inf, 2.0, 0.5), 4.0 + kDryContactDuration + margin);
+  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 0.5, -1.0, inf, 1.0, 1.0),
+                   1.0 + kDryContactDuration + margin);
+  EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 1.5, -0.5, inf, 2.0, 0.5),
+                   4.0 + kDryContactDuration + margin);
   // Rebound: Delta extrapolated back to 0.
   EXPECT_DOUBLE_EQ(estimate_end_time(3.6, -0.5, 0.9, inf, 1.0, 1.0), 3.6 + 0.5 / 0.9 + margin);
   // Late: never earlier than T + margin.
@@ -957,7 +982,8 @@ Field moving_ring(const Grid2D& grid, int step) {
 // V_s column must be what the batch finite differences give for its R_s column.
 TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
   TempDir dir;
-  const ImpactConfig config = load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
+  const ImpactConfig config =
+      load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
   const Grid2D grid(65, 1.5);
   const int steps = 7;
   {
@@ -985,7 +1011,7 @@ TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
   const std::vector<double> expected = finite_difference_rate(T, R);
   for (std::size_t k = 0; k < V.size(); ++k) {
     EXPECT_NEAR(V[k], expected[k], 1e-6 * std::abs(expected[k])) << k;  // 10 digits in the file
-    EXPECT_LT(V[k], 0.0) << k;  // inward
+    EXPECT_LT(V[k], 0.0) << k;                                          // inward
   }
 }
 
@@ -994,14 +1020,16 @@ TEST(SpikeOutput, OneRowPerStepWithTheFiniteDifferenceSpeed) {
 // three-point differences from its first row on.
 TEST(SpikeOutput, ARestartWritesTheRowsOfTheUninterruptedRun) {
   TempDir dir;
-  const ImpactConfig config = load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
+  const ImpactConfig config =
+      load_config(std::nullopt, {"grid.points=65", "solver.coarsest_points=5"});
   const Grid2D grid(65, 1.5);
   constexpr int kSteps = 7;
   constexpr int kCheckpointStep = 3;
   const auto write = [&](const fs::path& run, bool restart) {
     SpikeOutput spike(run, config);
     spike.on_start(grid);
-    if (restart) spike.resume_after(spike_time(kCheckpointStep), moving_ring(grid, kCheckpointStep));
+    if (restart)
+      spike.resume_after(spike_time(kCheckpointStep), moving_ring(grid, kCheckpointStep));
     for (int step = restart ? kCheckpointStep + 1 : 1; step <= kSteps; ++step)
       spike.on_step(record(step, spike_time(step)), moving_ring(grid, step), Field(grid), false);
     spike.on_finish(RunSummary{});
@@ -1036,7 +1064,8 @@ TEST(RunOutput, ARestartDoesNotStoreReachedSnapshotTimesAgain) {
 
 TEST(RunOutput, FailedRunLeavesNoFiles) {
   TempDir dir;
-  const ImpactConfig config = load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
+  const ImpactConfig config =
+      load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
   const Grid2D grid(9, 1.5);
   {
     RunOutput output(dir.path(), config, false);
@@ -1049,7 +1078,8 @@ TEST(RunOutput, FailedRunLeavesNoFiles) {
 
 TEST(RunOutput, RunJsonHasNullForMissingLiftOff) {
   TempDir dir;
-  const ImpactConfig config = load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
+  const ImpactConfig config =
+      load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"});
   RunOutput output(dir.path(), config, false);
   RunSummary summary;
   summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();

@@ -152,7 +152,8 @@ TEST(FasSolver, SafeguardUndoesCorrectionsThatMakeTheResidualWorse) {
   FasSolver reference(model.levels, defaults);
   model.set_rhs(reference);
   Field smoothed(model.levels.front()->grid());
-  model.levels.front()->relax(smoothed, reference.rhs(), defaults.pre_sweeps + defaults.post_sweeps);
+  model.levels.front()->relax(smoothed, reference.rhs(),
+                              defaults.pre_sweeps + defaults.post_sweeps);
   for (std::size_t k = 0; k < smoothed.size(); ++k) ASSERT_EQ(guarded[k], smoothed[k]) << k;
 }
 

@@ -69,7 +69,8 @@ TEST(LineRelaxation, YLinesAreXLinesOfTheTransposedProblem) {
   relax.switch_ratio = 0.3;  // both kinds of points on this coarse grid
   LineRelaxation smoother(op, relax);
 
-  const auto [P, f] = contact_data(grid, 186, [](double x, double y) { return 1.0 + 0.3 * x + 0.1 * y; });
+  const auto [P, f] =
+      contact_data(grid, 186, [](double x, double y) { return 1.0 + 0.3 * x + 0.1 * y; });
   Field along_x = P;
   smoother.sweep(along_x, f, LineDirection::X);
   const SweepStats stats = smoother.last_sweep();
@@ -129,7 +130,8 @@ TEST(LineRelaxation, QuadrantSweepsEqualFullGridSweeps) {
   for (std::size_t k = 0; k < r_full.size(); ++k) r_full[k] = f[k] - N_full[k];
   for (std::size_t k = 0; k < r_quadrant.size(); ++k) r_quadrant[k] = fq[k] - N_quadrant[k];
   // Zero on the boundary, as the FAS residual is.
-  for (int k = 0; k < quadrant.n; ++k) r_quadrant(k, quadrant.n - 1) = r_quadrant(quadrant.n - 1, k) = 0.0;
+  for (int k = 0; k < quadrant.n; ++k)
+    r_quadrant(k, quadrant.n - 1) = r_quadrant(quadrant.n - 1, k) = 0.0;
   for (int k = 0; k < full.n; ++k)
     r_full(k, 0) = r_full(0, k) = r_full(k, full.n - 1) = r_full(full.n - 1, k) = 0.0;
   EXPECT_NEAR(op_quadrant.pressure_scaled_norm(r_quadrant), op_full.pressure_scaled_norm(r_full),

@@ -8,10 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
-
-#include <nlohmann/json.hpp>
 
 #include "dynamics/DryHertz.hpp"
 #include "impact/RunGuards.hpp"
@@ -43,9 +42,9 @@ TEST(RunGuards, ElasticEnergyOfTheDryHertzContactIsItsWork) {
     for (int i = 0; i < grid.n; ++i) {
       const double r2 = grid.x(i) * grid.x(i) + grid.y(j) * grid.y(j), r = std::sqrt(r2);
       P(i, j) = r < 1.0 ? std::sqrt(1.0 - r2) : 0.0;
-      W(i, j) = r <= 1.0 ? 1.0 - 0.5 * r2
-                         : ((2.0 - r2) * std::asin(1.0 / r) + std::sqrt(r2 - 1.0)) /
-                               std::numbers::pi;
+      W(i, j) = r <= 1.0
+                    ? 1.0 - 0.5 * r2
+                    : ((2.0 - r2) * std::asin(1.0 / r) + std::sqrt(r2 - 1.0)) / std::numbers::pi;
     }
   }
   EXPECT_NEAR(elastic_energy(grid, P, W), 0.4, 2e-3);
@@ -176,8 +175,7 @@ TEST(CaseMap, ProbeSmallMOnA33Grid) {
   // Used to "lift off" after 3 steps with Delta = 6.6e34: the film at T = 0
   // had not converged.  The hint (start further away) is tested below.
   TempDir dir;
-  expect_failed_run(dir, map_run(dir, 33, "--set case.M=1"),
-                    "did not converge (residual");
+  expect_failed_run(dir, map_run(dir, 33, "--set case.M=1"), "did not converge (residual");
 }
 
 TEST(CaseMap, ProbeWavinessDeeperThanTheGapIsBadInput) {
@@ -192,16 +190,16 @@ TEST(CaseMap, ProbeWavinessDeeperThanTheGapIsBadInput) {
   const std::string text = r.err.substr(r.err.find("must be < ") + 10);
   const double largest = std::stod(text);
   EXPECT_GT(largest, 1.0);  // at least Delta0: the cosine is at most 1
-  const Result ok = map_run(dir, 33, "--set time.T_end=1e-3 --set surface.waviness_amplitude=" +
-                                          std::to_string(0.999 * largest));
+  const Result ok = map_run(
+      dir, 33,
+      "--set time.T_end=1e-3 --set surface.waviness_amplitude=" + std::to_string(0.999 * largest));
   EXPECT_NE(ok.exit_code, 2) << ok.err;
 }
 
 TEST(CaseMap, ProbeLargeMNeedsMorePoints) {
   // M = 10000 on 65^2 used to keep h_min < 0 in 61 rows.
   TempDir dir;
-  expect_failed_run(dir, map_run(dir, 65, "--set case.M=10000"),
-                    "negative film h_min = -");
+  expect_failed_run(dir, map_run(dir, 65, "--set case.M=10000"), "negative film h_min = -");
   const Result r = map_run(dir, 65, "--set case.M=10000");
   EXPECT_NE(r.err.find("use more points (grid.points = 65)"), std::string::npos) << r.err;
 }
@@ -230,8 +228,10 @@ TEST(CaseMap, PaperCaseLiftsOffWithEveryStepConverged) {
 TEST(CaseMap, RigidViscousBallComesToRest) {
   // No elastic energy to give back: the squeeze film stops the ball.
   TempDir dir;
-  const Result r = ehlsim("impact --set grid.points=65 --set case.M=1 --set case.L=0 "
-                          "--set body.elastic=false --out " + quote((dir / "run").string()));
+  const Result r = ehlsim(
+      "impact --set grid.points=65 --set case.M=1 --set case.L=0 "
+      "--set body.elastic=false --out " +
+      quote((dir / "run").string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("at rest in the film at T = "), std::string::npos) << r.out;
   const nlohmann::json res = results_of(dir);

@@ -1,12 +1,11 @@
 // Moes parameters and physical reference scales (model.md).
 #include <gtest/gtest.h>
 
-#include "support/SteelBall.hpp"
-
 #include <cmath>
 #include <numbers>
 
 #include "impact/Scaling.hpp"
+#include "support/SteelBall.hpp"
 
 namespace ehlsim {
 namespace {
@@ -19,7 +18,7 @@ struct MoesRow {
 
 // model.md, "Moes parameters" (6 significant digits).
 constexpr MoesRow kTable[] = {
-    {10, 10, 0.509541, 7.85020},   {20, 10, 0.202212, 9.89063},  {50, 10, 0.059596, 13.42365},
+    {10, 10, 0.509541, 7.85020},   {20, 10, 0.202212, 9.89063},    {50, 10, 0.059596, 13.42365},
     {100, 10, 0.023651, 16.91274}, {1000, 10, 0.001098, 36.43739},
 };
 
@@ -61,7 +60,8 @@ TEST(Scaling, ReferenceScalesDefinitions) {
   const double m = p.mass_kg;
   const double v0 = p.impact_speed_m_s;
   const double E = p.reduced_modulus_Pa;
-  EXPECT_LT(relative(std::pow(p.delta_star_m, 2.5), 3 * m * v0 * v0 / (2 * E * std::sqrt(R))), 1e-13);
+  EXPECT_LT(relative(std::pow(p.delta_star_m, 2.5), 3 * m * v0 * v0 / (2 * E * std::sqrt(R))),
+            1e-13);
   EXPECT_LT(relative(p.a_star_m * p.a_star_m, R * p.delta_star_m), 1e-14);
   EXPECT_LT(relative(p.ph_star_Pa, E * p.a_star_m / (kPi * R)), 1e-14);
   EXPECT_LT(relative(p.t_bar_s, p.delta_star_m / v0), 1e-14);
@@ -81,8 +81,8 @@ TEST(Scaling, LambdaBarIsEightPiEta0RSquaredOverMomentum) {
     const double St = p.mass_kg * v0 / (6 * kPi * p.eta0_Pa_s * R * R);
     EXPECT_LT(relative(g.lambda_bar, 4.0 / (3.0 * St)), 1e-12);
     // alpha_bar = alpha ph* = (alpha E' / pi) sqrt(delta* / R).
-    EXPECT_LT(relative(g.alpha_bar, p.alpha_per_Pa * p.reduced_modulus_Pa / kPi *
-                                        std::sqrt(p.delta_star_m / R)),
+    EXPECT_LT(relative(g.alpha_bar,
+                       p.alpha_per_Pa * p.reduced_modulus_Pa / kPi * std::sqrt(p.delta_star_m / R)),
               1e-13);
     // M, L consistent with lambda_bar, alpha_bar.
     EXPECT_LT(relative(moes_lambda_bar(g.M), g.lambda_bar), 1e-13);

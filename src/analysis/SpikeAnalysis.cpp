@@ -257,8 +257,8 @@ SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,
                             const SpikeSettings& settings) {
   const double h = grid.h();
   SpikeAnalysis out;
-  const Profile averaged = moving_average(quadrant_radial_profile(grid, P), settings.smoothing_points,
-                                          settings.max_window_meshes * h);
+  const Profile averaged = moving_average(
+      quadrant_radial_profile(grid, P), settings.smoothing_points, settings.max_window_meshes * h);
   out.filtered = resample_uniform(averaged, settings.resample_meshes * h);
   out.filtered.value = low_pass(out.filtered.value, settings.resample_meshes * h, settings.filter,
                                 settings.cutoff_meshes * h);

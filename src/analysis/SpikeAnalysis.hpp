@@ -73,10 +73,10 @@ struct PeakRule {
 
 /// One pressure field analysed.
 struct SpikeAnalysis {
-  Profile filtered;             ///< the filtered P(R) on its uniform R grid
-  Profile axis;                 ///< P(X) on Y = 0, X >= 0
-  std::optional<Peak> radial;   ///< the spike of the filtered P(R): R_s, P_s
-  std::optional<Peak> axial;    ///< the spike of P(X) on Y = 0 (grid point)
+  Profile filtered;            ///< the filtered P(R) on its uniform R grid
+  Profile axis;                ///< P(X) on Y = 0, X >= 0
+  std::optional<Peak> radial;  ///< the spike of the filtered P(R): R_s, P_s
+  std::optional<Peak> axial;   ///< the spike of P(X) on Y = 0 (grid point)
 };
 
 [[nodiscard]] SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,

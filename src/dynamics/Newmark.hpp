@@ -26,8 +26,8 @@ struct BallState {
 /// integrator's.
 class Newmark {
  public:
-  static constexpr double kBeta = 0.25;   ///< Newmark (1959), average acceleration
-  static constexpr double kGamma = 0.5;   ///< Newmark (1959): no numerical damping
+  static constexpr double kBeta = 0.25;  ///< Newmark (1959), average acceleration
+  static constexpr double kGamma = 0.5;  ///< Newmark (1959): no numerical damping
 
   /// Throws std::invalid_argument unless dT > 0 and finite.
   explicit Newmark(double dT);
@@ -42,9 +42,7 @@ class Newmark {
   }
 
   /// d(delta_for_force)/d(force_new) = beta dT^2 (3/(2 pi)): constant, positive.
-  [[nodiscard]] double d_delta_d_force() const {
-    return kBeta * dT_ * dT_ * kForceToAcceleration;
-  }
+  [[nodiscard]] double d_delta_d_force() const { return kBeta * dT_ * dT_ * kForceToAcceleration; }
 
   /// The state at T + dT for the force force_new at T + dT.
   [[nodiscard]] BallState advance(const BallState& s, double force_new) const;

@@ -31,8 +31,7 @@ double cell_kernel(double x, double y, double h) {
   return kElasticPrefactor<double> * (G(xp, yp) - G(xp, ym) - G(xm, yp) + G(xm, ym));
 }
 
-KernelTable::KernelTable(const Grid2D& grid)
-    : n_(grid.n), h_(grid.h()), k_(grid.size()) {
+KernelTable::KernelTable(const Grid2D& grid) : n_(grid.n), h_(grid.h()), k_(grid.size()) {
   using Real = long double;
   // G is homogeneous of degree 1, so K(a h, b h, h) = h K(a, b, 1): work in
   // units of h on the corner lattice c = a - 1/2, a = 0..n, and share each G
@@ -49,7 +48,7 @@ KernelTable::KernelTable(const Grid2D& grid)
   const Real scale = kElasticPrefactor<Real> * static_cast<Real>(h_);
   for (int b = 0; b < n_; ++b) {
     const Real* lo = &g[static_cast<std::size_t>(b) * nc];  // y- = b - 1/2
-    const Real* hi = lo + nc;                                // y+ = b + 1/2
+    const Real* hi = lo + nc;                               // y+ = b + 1/2
     for (int a = 0; a < n_; ++a) {
       const Real sum = hi[a + 1] - lo[a + 1] - hi[a] + lo[a];
       k_[static_cast<std::size_t>(b) * n_ + a] = static_cast<double>(scale * sum);

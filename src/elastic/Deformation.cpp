@@ -4,12 +4,12 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <mutex>
 #include <new>
 #include <numbers>
-#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -157,9 +157,7 @@ constexpr int kBatches = 8;
 struct Share {
   int begin, end;
 };
-Share share(int count, int parts, int c) {
-  return {count * c / parts, count * (c + 1) / parts};
-}
+Share share(int count, int parts, int c) { return {count * c / parts, count * (c + 1) / parts}; }
 
 }  // namespace
 
@@ -231,9 +229,9 @@ void in_three_stages(int parts, RowsIn&& rows_in, Columns&& columns, RowsOut&& r
 /// spectrum, and back.  Skipping the all-zero padding rows saves about a
 /// quarter of the work of a plain 2-D transform.
 struct FullImpl final : FftDeformation::Impl {
-  int n;        // grid points per side
-  int mc;       // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
-  int parts;    // the transforms are cut into this many independent batches
+  int n;      // grid points per side
+  int mc;     // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
+  int parts;  // the transforms are cut into this many independent batches
   FftwBuffer<double> real;            // n rows of m: P in, W out
   FftwBuffer<fftw_complex> spectrum;  // m rows of mc
   FftwBuffer<double> kernel_hat;      // mc rows of mc: the kernel spectrum, ky <= m/2
@@ -295,7 +293,8 @@ struct FullImpl final : FftDeformation::Impl {
     // the spectrum's padding rows (overwritten by the previous inverse).
     const auto rows_in = [&](int c) {
       const Share rows = share(n, parts, c);
-      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j) {
+      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end);
+           ++j) {
         std::copy_n(p + j * un, un, r + j * um);
         std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
       }
@@ -312,7 +311,8 @@ struct FullImpl final : FftDeformation::Impl {
       for (std::size_t ky = 0; ky < um; ++ky) {
         const double* k = kh + std::min(ky, um - ky) * umc;
         fftw_complex* row = s + ky * umc;
-        for (auto kx = static_cast<std::size_t>(cols.begin); kx < static_cast<std::size_t>(cols.end); ++kx) {
+        for (auto kx = static_cast<std::size_t>(cols.begin);
+             kx < static_cast<std::size_t>(cols.end); ++kx) {
           row[kx][0] *= k[kx];
           row[kx][1] *= k[kx];
         }
@@ -323,7 +323,8 @@ struct FullImpl final : FftDeformation::Impl {
     const auto rows_out = [&](int c) {
       fftw_execute(rows_backward[c].get());
       const Share rows = share(n, parts, c);
-      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end); ++j)
+      for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end);
+           ++j)
         std::copy_n(r + j * um, un, w + j * un);
     };
     in_three_stages(parts, rows_in, columns, rows_out);
@@ -442,7 +443,8 @@ void transpose(const double* from, int from_dist, double* to, int to_dist, int r
       const int c1 = std::min(cols, c0 + kTransposeTile);
       for (int r = r0; r < r1; ++r)
         for (int c = c0; c < c1; ++c)
-          to[static_cast<std::size_t>(c) * to_dist + r] = from[static_cast<std::size_t>(r) * from_dist + c];
+          to[static_cast<std::size_t>(c) * to_dist + r] =
+              from[static_cast<std::size_t>(r) * from_dist + c];
     }
   }
 }
@@ -456,10 +458,10 @@ void transpose(const double* from, int from_dist, double* to, int to_dist, int r
 /// along Y run on transposed strips, so that every transform reads
 /// contiguous memory.  About a quarter of the full grid's work.
 struct MirroredImpl final : FftDeformation::Impl {
-  int n;      // quadrant points per side
-  int mc;     // m/2 + 1 values per side of the even arrays
-  int dist;   // row stride of the work arrays (room for the DCT's spectrum)
-  int parts;  // batches, as in FullImpl
+  int n;                            // quadrant points per side
+  int mc;                           // m/2 + 1 values per side of the even arrays
+  int dist;                         // row stride of the work arrays (room for the DCT's spectrum)
+  int parts;                        // batches, as in FullImpl
   FftwBuffer<double> rows_data;     // n rows: the transforms along X
   FftwBuffer<double> columns_data;  // mc rows: the transforms along Y, transposed
   FftwBuffer<double> kernel_hat;    // mc rows of mc (symmetric: K(a, b) = K(b, a))

@@ -24,9 +24,10 @@
 namespace ehlsim {
 
 struct Grid2D {
-  int n = 0;                 ///< points per side, boundary included
-  double half_width = 0.0;   ///< the domain is [-half_width, half_width]^2 (mirrored: [0, half_width]^2)
-  bool mirrored = false;     ///< the quadrant of a problem even in X and Y
+  int n = 0;  ///< points per side, boundary included
+  double half_width =
+      0.0;  ///< the domain is [-half_width, half_width]^2 (mirrored: [0, half_width]^2)
+  bool mirrored = false;  ///< the quadrant of a problem even in X and Y
 
   Grid2D() = default;
   Grid2D(int points, double half, bool mirror = false)

@@ -12,7 +12,6 @@
 #include "analysis/SpikeSettings.hpp"
 #include "reynolds/FaceMean.hpp"
 #include "reynolds/LineRelaxation.hpp"
-
 #include "rheology/Models.hpp"
 
 namespace ehlsim {
@@ -20,17 +19,16 @@ namespace ehlsim {
 enum class CycleType { V, W };
 enum class DeformationMethod { Fft, Direct };
 
-
 /// Physical inputs (SI units) and the reference scales derived from them (model.md).
 struct PhysicalCase {
   // inputs
-  double reduced_radius_m = 0.0;   ///< R
-  double mass_kg = 0.0;            ///< m
-  double impact_speed_m_s = 0.0;   ///< v0
-  double reduced_modulus_Pa = 0.0; ///< E'
-  double eta0_Pa_s = 0.0;          ///< ambient viscosity
-  double alpha_per_Pa = 0.0;       ///< pressure-viscosity coefficient
-  double rho0_kg_m3 = 0.0;         ///< ambient density
+  double reduced_radius_m = 0.0;    ///< R
+  double mass_kg = 0.0;             ///< m
+  double impact_speed_m_s = 0.0;    ///< v0
+  double reduced_modulus_Pa = 0.0;  ///< E'
+  double eta0_Pa_s = 0.0;           ///< ambient viscosity
+  double alpha_per_Pa = 0.0;        ///< pressure-viscosity coefficient
+  double rho0_kg_m3 = 0.0;          ///< ambient density
   // derived scales
   double delta_star_m = 0.0;
   double a_star_m = 0.0;
@@ -43,8 +41,8 @@ struct ImpactConfig {
   // [case] Moes parameters and the dimensionless groups they fix.
   double M = 100.0;
   double L = 10.0;
-  double lambda_bar = 0.0;  ///< derived from M unless given
-  double alpha_bar = 0.0;   ///< derived from M, L unless given
+  double lambda_bar = 0.0;               ///< derived from M unless given
+  double alpha_bar = 0.0;                ///< derived from M, L unless given
   std::optional<PhysicalCase> physical;  ///< set when a [physical] section was given
 
   // [lubricant]
@@ -62,7 +60,7 @@ struct ImpactConfig {
   double half_width = 1.5;
 
   // [time]
-  double dT = 0.0;  ///< 0: equal to the mesh size
+  double dT = 0.0;                                         ///< 0: equal to the mesh size
   double T_end = std::numeric_limits<double>::infinity();  ///< inf: until lift-off
   /// Cap on the steps of a run until lift-off; 0: default_max_steps (impact/RunGuards.hpp).
   int max_steps = 0;
@@ -76,7 +74,7 @@ struct ImpactConfig {
 
   // [solver]
   CycleType cycle = CycleType::V;
-  double tolerance = 1e-5;        ///< on the pressure-scaled residual of the finest grid
+  double tolerance = 1e-5;  ///< on the pressure-scaled residual of the finest grid
   /// Cycles per attempt of a time step.  20: the hardest steps of the spike
   /// phase converge at 0.5-0.7 per cycle from a start residual ~1e-1 (257^2).
   int max_cycles = 20;
@@ -90,7 +88,7 @@ struct ImpactConfig {
   double retry_damping = 0.8;
   int pre_sweeps = 3;
   int post_sweeps = 2;
-  int coarsest_points = 17;       ///< the coarsest multigrid level has this many points per side
+  int coarsest_points = 17;  ///< the coarsest multigrid level has this many points per side
   DeformationMethod deformation = DeformationMethod::Fft;
   reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
   FaceMean face_mean = FaceMean::Arithmetic;

@@ -15,14 +15,14 @@ struct StepRecord {
   double T = 0.0;
   double Delta = 0.0;
   double dDelta_dT = 0.0;
-  double force = 0.0;      ///< Int Int P dX dY
+  double force = 0.0;  ///< Int Int P dX dY
   double h_center = 0.0;
   double h_min = 0.0;
   double p_center = 0.0;
   double p_max = 0.0;
-  int cycles = 0;          ///< multigrid cycles used in this step
-  double residual = 0.0;   ///< final scaled residual of this step
-  int attempts = 1;        ///< 1, plus the retries of the step with more damping
+  int cycles = 0;         ///< multigrid cycles used in this step
+  double residual = 0.0;  ///< final scaled residual of this step
+  int attempts = 1;       ///< 1, plus the retries of the step with more damping
   /// Deformation evaluations of the step, all levels and attempts, in units of
   /// one evaluation on the finest grid (a coarser level's count times its
   /// share of the finest grid's points): the machine-independent cost.
@@ -39,9 +39,12 @@ enum class RunOutcome {
 
 inline std::string_view outcome_text(RunOutcome outcome) {
   switch (outcome) {
-    case RunOutcome::LiftOff: return "lift_off";
-    case RunOutcome::AtRest: return "at_rest";
-    case RunOutcome::TEnd: break;
+    case RunOutcome::LiftOff:
+      return "lift_off";
+    case RunOutcome::AtRest:
+      return "at_rest";
+    case RunOutcome::TEnd:
+      break;
   }
   return "t_end";
 }
@@ -52,19 +55,19 @@ struct RunSummary {
   RunOutcome outcome = RunOutcome::TEnd;
   bool lifted_off = false;
   double T_final = 0.0;
-  double T_lift_off = 0.0;      ///< NaN when the run ended before lift-off
-  double rebound_speed = 0.0;   ///< dDelta/dT at lift-off (NaN if no lift-off)
+  double T_lift_off = 0.0;     ///< NaN when the run ended before lift-off
+  double rebound_speed = 0.0;  ///< dDelta/dT at lift-off (NaN if no lift-off)
   double max_force = 0.0;
   double T_max_force = 0.0;
   double min_h_center = 0.0;
   double T_min_h_center = 0.0;
-  double initial_force = 0.0;   ///< film force at T = 0 (quasi-static squeeze film)
-  double impulse = 0.0;         ///< (3 / (2 pi)) Int force dT, from T = 0
+  double initial_force = 0.0;  ///< film force at T = 0 (quasi-static squeeze film)
+  double impulse = 0.0;        ///< (3 / (2 pi)) Int force dT, from T = 0
   /// Elastic energy of the solids under the film at T = 0 [m v0^2] (RunGuards.hpp).
   double initial_elastic_energy = 0.0;
   double wall_seconds = 0.0;
-  int unconverged_steps = 0;    ///< steps that ended at solver.max_cycles above solver.tolerance
-  int retried_steps = 0;        ///< steps solved again with more damping after diverging
+  int unconverged_steps = 0;  ///< steps that ended at solver.max_cycles above solver.tolerance
+  int retried_steps = 0;      ///< steps solved again with more damping after diverging
   /// Kinetic plus elastic energy left at the end, over the impact energy V0^2 / 2.
   double final_energy = std::numeric_limits<double>::quiet_NaN();
 };

@@ -1,15 +1,15 @@
 #include "impact/ImpactProblem.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
-
-#include <fmt/format.h>
 
 #include "dynamics/Newmark.hpp"
 #include "impact/ReynoldsFasLevel.hpp"
@@ -203,8 +203,7 @@ void ImpactProblem::Impl::set_delta(double Delta) {
   for (auto& level : levels) level->op().set_delta(Delta);
 }
 
-double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
-                                            double force_guess) {
+double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball, double force_guess) {
   bdf = step == 1 ? kBdf1 : kBdf2;  // BDF2 needs two earlier levels: BDF1 starts it
   set_time_coefficients(bdf.b0);
   fill_interior(solver->rhs(), grid, [&](int i, int j) {
@@ -226,8 +225,7 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball,
     // the extra residual evaluation.)
     Field& P = solver->solution();
     const Field last = P;
-    for (std::size_t k = 0; k < P.size(); ++k)
-      P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
+    for (std::size_t k = 0; k < P.size(); ++k) P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
     start_residual = solver->residual_norm();
     const Field extrapolated = P;
     P = last;
@@ -338,8 +336,7 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
   return false;
 }
 
-StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball,
-                                            double force) const {
+StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force) const {
   const Field& P = solver->solution(0);
   const Field& H = levels.front()->op().film();
   const int n = grid.n;
@@ -494,8 +491,8 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     if (state_sink && state_every > 0 && step % state_every == 0 && !end) {
       // Full-grid fields, whatever grid the solver works on: a checkpoint
       // does not depend on solver.symmetry.
-      state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure,
-                             summary, unfold(solver->solution(), grid), unfold(P_before, grid),
+      state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure, summary,
+                             unfold(solver->solution(), grid), unfold(P_before, grid),
                              unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
     }
     if (end) {
@@ -525,9 +522,9 @@ void ImpactProblem::restart_from(ImpactState state) {
   const Grid2D grid = impl_->grid.full();
   for (const Field* f : {&state.P, &state.P_before, &state.rhoH, &state.rhoH_before}) {
     if (f->n() != grid.n || f->size() != grid.size())
-      throw std::invalid_argument(fmt::format(
-          "restart: the state's fields have {} points per side, the problem's grid {}", f->n(),
-          grid.n));
+      throw std::invalid_argument(
+          fmt::format("restart: the state's fields have {} points per side, the problem's grid {}",
+                      f->n(), grid.n));
   }
   if (state.step < 1) throw std::invalid_argument("restart: the state is before the first step");
   impl_->restart = std::move(state);

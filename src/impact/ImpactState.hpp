@@ -9,16 +9,16 @@
 namespace ehlsim {
 
 struct ImpactState {
-  int step = 0;                 ///< time steps done
-  BallState ball;               ///< the ball at the end of step `step`
-  double force = 0.0;           ///< film force at the last time level
-  double force_before = 0.0;    ///< ... and at the one before (the force extrapolation)
-  bool had_pressure = false;    ///< some step so far carried pressure (lift-off needs it)
-  RunSummary summary;           ///< extremes, impulse and solver counters up to `step`
-  Field P;                      ///< pressure at the last time level (finest grid)
-  Field P_before;               ///< pressure at the level before (the extrapolated start)
-  Field rhoH;                   ///< rho H at the last time level (the BDF2 history)
-  Field rhoH_before;            ///< rho H at the level before
+  int step = 0;               ///< time steps done
+  BallState ball;             ///< the ball at the end of step `step`
+  double force = 0.0;         ///< film force at the last time level
+  double force_before = 0.0;  ///< ... and at the one before (the force extrapolation)
+  bool had_pressure = false;  ///< some step so far carried pressure (lift-off needs it)
+  RunSummary summary;         ///< extremes, impulse and solver counters up to `step`
+  Field P;                    ///< pressure at the last time level (finest grid)
+  Field P_before;             ///< pressure at the level before (the extrapolated start)
+  Field rhoH;                 ///< rho H at the last time level (the BDF2 history)
+  Field rhoH_before;          ///< rho H at the level before
 };
 
 }  // namespace ehlsim

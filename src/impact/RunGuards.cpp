@@ -1,10 +1,10 @@
 #include "impact/RunGuards.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-
-#include <fmt/format.h>
 
 namespace ehlsim {
 
@@ -140,9 +140,10 @@ void check_initial_state(double force, double residual, const ImpactConfig& c) {
     return;
   const std::string estimate =
       c.viscosity == ViscosityModel::Barus
-          ? fmt::format(" (rigid Barus film: the pressure diverges unless Delta0^2 > alpha_bar "
-                        "lambda_bar V0 / 4 = {:.3g})",
-                        c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
+          ? fmt::format(
+                " (rigid Barus film: the pressure diverges unless Delta0^2 > alpha_bar "
+                "lambda_bar V0 / 4 = {:.3g})",
+                c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
           : std::string();
   throw RunFailure(fmt::format(
       "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge (residual "

@@ -46,8 +46,7 @@ PhysicalCase with_reference_scales(PhysicalCase c) {
 MoesGroups moes_groups(const PhysicalCase& c) {
   MoesGroups g;
   const double R = c.reduced_radius_m;
-  g.lambda_bar = 12.0 * c.eta0_Pa_s * R * R /
-                 (c.a_star_m * c.a_star_m * c.t_bar_s * c.ph_star_Pa);
+  g.lambda_bar = 12.0 * c.eta0_Pa_s * R * R / (c.a_star_m * c.a_star_m * c.t_bar_s * c.ph_star_Pa);
   g.alpha_bar = c.alpha_per_Pa * c.ph_star_Pa;
   g.M = moes_M(g.lambda_bar);
   g.L = moes_L(g.lambda_bar, g.alpha_bar);

@@ -1,12 +1,12 @@
 #include "io/AtomicFile.hpp"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
-
-#include <fmt/format.h>
 
 namespace ehlsim {
 

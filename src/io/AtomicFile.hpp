@@ -4,7 +4,6 @@
 // (rename is atomic within one file system).  A PartialFile destroyed without
 // commit() removes the partial file.
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 namespace ehlsim {

@@ -1,14 +1,14 @@
 #include "io/Checkpoint.hpp"
 
+#include <fmt/format.h>
+#include <netcdf.h>
+
 #include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string_view>
 #include <utility>
 #include <vector>
-
-#include <fmt/format.h>
-#include <netcdf.h>
 
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
@@ -73,7 +73,9 @@ class NcFile {
   }
   NcFile(const NcFile&) = delete;
   NcFile& operator=(const NcFile&) = delete;
-  void check(int status, std::string_view what) const { check_netcdf(status, action_, path_, what); }
+  void check(int status, std::string_view what) const {
+    check_netcdf(status, action_, path_, what);
+  }
   void close() {
     const int status = nc_close(id);
     id = -1;
@@ -130,9 +132,9 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
         throw std::invalid_argument("write_checkpoint: the fields differ in size");
       int var = -1;
       nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 2, dims.data(), &var), name);
-      nc.check(nc_put_att_text(nc.id, var, "long_name", std::string_view(long_name).size(),
-                               long_name),
-               name);
+      nc.check(
+          nc_put_att_text(nc.id, var, "long_name", std::string_view(long_name).size(), long_name),
+          name);
       variables.emplace_back(var, &f);
     });
     nc.check(nc_enddef(nc.id), "nc_enddef");
@@ -149,19 +151,20 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   int version = 0;
   if (nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version) != NC_NOERR ||
       read_text_attribute(nc, "title") != kFormatName) {
-    throw std::runtime_error(
-        fmt::format("'{}' is not an ehlsim checkpoint (no \"{}\" title)", path.string(), kFormatName));
+    throw std::runtime_error(fmt::format("'{}' is not an ehlsim checkpoint (no \"{}\" title)",
+                                         path.string(), kFormatName));
   }
   if (version != kFormatVersion) {
-    throw std::runtime_error(fmt::format("checkpoint '{}' has format version {}; this ehlsim reads {}",
-                                         path.string(), version, kFormatVersion));
+    throw std::runtime_error(
+        fmt::format("checkpoint '{}' has format version {}; this ehlsim reads {}", path.string(),
+                    version, kFormatVersion));
   }
   Checkpoint c;
   try {
     c.parameters = nlohmann::json::parse(read_text_attribute(nc, "ehlsim_parameters"));
   } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(
-        fmt::format("checkpoint '{}': its parameters are not valid JSON: {}", path.string(), e.what()));
+    throw std::runtime_error(fmt::format("checkpoint '{}': its parameters are not valid JSON: {}",
+                                         path.string(), e.what()));
   }
   ImpactState& s = c.state;
   for_each_scalar(s, [&](const char* name, double& value) {
@@ -220,7 +223,8 @@ void check_restart_compatible(const nlohmann::json& checkpoint_parameters,
       if (value_now != value_saved) {
         throw ConfigError(
             fmt::format("{} = {}, but checkpoint '{}' was written with {} (a restart continues "
-                        "the same case: only solver.*, output.*, spike.*, time.T_end and time.max_steps may "
+                        "the same case: only solver.*, output.*, spike.*, time.T_end and "
+                        "time.max_steps may "
                         "change, solver.face_mean excepted)",
                         dotted(it.key()), value_now, file, value_saved),
             dotted(it.key()));

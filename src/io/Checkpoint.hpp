@@ -13,9 +13,8 @@
 // The file is written under a temporary name and renamed: a checkpoint on
 // disk is always complete, and the last one survives a run that fails later.
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "impact/ImpactState.hpp"
 

@@ -1,10 +1,10 @@
 #include "io/CsvWriter.hpp"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <stdexcept>
 #include <system_error>
-
-#include <fmt/format.h>
 
 namespace ehlsim {
 

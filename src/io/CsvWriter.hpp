@@ -27,7 +27,7 @@ class CsvWriter {
  private:
   void check(const char* what) const;
 
-  PartialFile file_;   // declared first: destroyed after the stream is closed
+  PartialFile file_;  // declared first: destroyed after the stream is closed
   std::ofstream out_;
   std::size_t rows_ = 0;
 };

@@ -1,12 +1,12 @@
 #include "io/FieldReader.hpp"
 
+#include <fmt/format.h>
+#include <netcdf.h>
+
 #include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
-
-#include <fmt/format.h>
-#include <netcdf.h>
 
 #include "io/NetcdfStatus.hpp"
 
@@ -44,8 +44,8 @@ FieldReader::FieldReader(const std::filesystem::path& path) : path_(path) {
     grid_ = Grid2D(static_cast<int>(n), half_width);
     for (std::size_t i = 0; i < n; ++i) {
       if (std::abs(X[i] - grid_.x(static_cast<int>(i))) > kCoordinateTolerance * half_width) {
-        throw std::runtime_error(fmt::format(
-            "'{}': X is not the uniform symmetric grid ehlsim writes", path.string()));
+        throw std::runtime_error(
+            fmt::format("'{}': X is not the uniform symmetric grid ehlsim writes", path.string()));
       }
     }
     times_.resize(snapshots);

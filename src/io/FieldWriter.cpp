@@ -1,12 +1,12 @@
 #include "io/FieldWriter.hpp"
 
+#include <fmt/format.h>
+#include <netcdf.h>
+
 #include <array>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <fmt/format.h>
-#include <netcdf.h>
 
 #include "io/NetcdfStatus.hpp"
 
@@ -18,7 +18,8 @@ constexpr int kDeflateLevel = 1;  ///< cheap compression: P is zero outside the 
 constexpr int kShuffle = 1;
 constexpr int kDeflate = 1;
 constexpr const char* kConventions = "CF-1.8";
-constexpr const char* kTitle = "ehlsim: lubricated ball impact on a flat (pressure and film thickness)";
+constexpr const char* kTitle =
+    "ehlsim: lubricated ball impact on a flat (pressure and film thickness)";
 constexpr const char* kReferences =
     "A. A. Lubrecht, C. H. Venner, Lubricants 2022, 10, 186 (model and scaling)";
 
@@ -81,7 +82,8 @@ FieldWriter::FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
     const auto field = [&](const char* name, const char* long_name, int* var) {
       check(nc_def_var(ncid_, name, NC_DOUBLE, 3, dims.data(), var), "nc_def_var");
       check(nc_def_var_chunking(ncid_, *var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
-      check(nc_def_var_deflate(ncid_, *var, kShuffle, kDeflate, kDeflateLevel), "nc_def_var_deflate");
+      check(nc_def_var_deflate(ncid_, *var, kShuffle, kDeflate, kDeflateLevel),
+            "nc_def_var_deflate");
       text(*var, "long_name", long_name);
       text(*var, "units", "1");
       text(*var, "coordinates", "T Y X");
@@ -139,8 +141,8 @@ FieldWriter::~FieldWriter() {
 void FieldWriter::append(double T, const Field& P, const Field& H) {
   if (ncid_ < 0) throw std::logic_error("FieldWriter::append after commit");
   if (P.n() != grid_.n || H.n() != grid_.n) {
-    throw std::invalid_argument(fmt::format("FieldWriter: fields of {} points per side on a grid of {}",
-                                            P.n(), grid_.n));
+    throw std::invalid_argument(
+        fmt::format("FieldWriter: fields of {} points per side on a grid of {}", P.n(), grid_.n));
   }
   const auto n = static_cast<std::size_t>(grid_.n);
   const std::size_t index = snapshots_;

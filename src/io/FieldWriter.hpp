@@ -9,7 +9,6 @@
 // "<section>_<name>" and the whole set as JSON text in "ehlsim_parameters".
 #include <cstddef>
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "grid/Grid.hpp"

@@ -1,9 +1,9 @@
 #include "io/NetcdfStatus.hpp"
 
-#include <stdexcept>
-
 #include <fmt/format.h>
 #include <netcdf.h>
+
+#include <stdexcept>
 
 namespace ehlsim {
 

@@ -10,7 +10,8 @@ namespace ehlsim {
 
 class ObserverChain final : public ImpactObserver {
  public:
-  explicit ObserverChain(std::vector<ImpactObserver*> observers) : observers_(std::move(observers)) {}
+  explicit ObserverChain(std::vector<ImpactObserver*> observers)
+      : observers_(std::move(observers)) {}
 
   void on_start(const Grid2D& grid) override {
     for (ImpactObserver* o : observers_) o->on_start(grid);

@@ -1,5 +1,8 @@
 #include "io/Parameters.hpp"
 
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -13,9 +16,6 @@
 #include <sstream>
 #include <system_error>
 #include <utility>
-
-#include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "grid/Grid.hpp"
 #include "impact/RunGuards.hpp"
@@ -51,7 +51,9 @@ std::string_view viscosity_model_text(ViscosityModel model) {
 std::string_view density_model_text(DensityModel model) {
   return model == DensityModel::DowsonHigginson ? kDowsonHigginson : kIncompressible;
 }
-std::string_view cycle_type_text(CycleType cycle) { return cycle == CycleType::W ? kCycleW : kCycleV; }
+std::string_view cycle_type_text(CycleType cycle) {
+  return cycle == CycleType::W ? kCycleW : kCycleV;
+}
 std::string_view deformation_method_text(DeformationMethod method) {
   return method == DeformationMethod::Direct ? kDirect : kFft;
 }
@@ -156,9 +158,12 @@ FaceMean face_mean_from_text(std::string_view text) {
 }
 std::string_view face_mean_text(FaceMean mean) {
   switch (mean) {
-    case FaceMean::Harmonic: return kHarmonic;
-    case FaceMean::Logarithmic: return kLogarithmic;
-    case FaceMean::Arithmetic: break;
+    case FaceMean::Harmonic:
+      return kHarmonic;
+    case FaceMean::Logarithmic:
+      return kLogarithmic;
+    case FaceMean::Arithmetic:
+      break;
   }
   return kArithmetic;
 }
@@ -191,7 +196,8 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("output.snapshot_start", kDefaults.snapshot_start, "", at_least(0), none, "",
                    "the snapshots every output.snapshot_every steps begin at this time"));
   r.push_back(integer("spike.smoothing_points", kDefaultSpike.smoothing_points, at_least(1), none,
-                      false, "moving average of the R-sorted P(R) over this many points (paper: 20)"));
+                      false,
+                      "moving average of the R-sorted P(R) over this many points (paper: 20)"));
   r.push_back(real("spike.max_window_meshes", kDefaultSpike.max_window_meshes, "", above(0), none,
                    "", "... spanning at most this many mesh sizes in R (acts near the centre)"));
   r.push_back(choice("spike.filter", spike_filter_text(kDefaultSpike.filter),
@@ -236,12 +242,12 @@ std::vector<ParameterSpec> build_registry() {
                    "approach speed v0"));
   r.push_back(real("physical.reduced_modulus", no_default, "from E1, nu1, E2, nu2", above(0), none,
                    "Pa", "reduced modulus E' (or give E1, nu1, E2, nu2)"));
-  r.push_back(real("physical.E1", no_default, "none", above(0), none, "Pa",
-                   "Young's modulus of the ball"));
+  r.push_back(
+      real("physical.E1", no_default, "none", above(0), none, "Pa", "Young's modulus of the ball"));
   r.push_back(real("physical.nu1", no_default, "none", at_least(0), at_most(kPoissonMax), "",
                    "Poisson's ratio of the ball"));
-  r.push_back(real("physical.E2", no_default, "none", above(0), none, "Pa",
-                   "Young's modulus of the flat"));
+  r.push_back(
+      real("physical.E2", no_default, "none", above(0), none, "Pa", "Young's modulus of the flat"));
   r.push_back(real("physical.nu2", no_default, "none", at_least(0), at_most(kPoissonMax), "",
                    "Poisson's ratio of the flat"));
   r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
@@ -251,8 +257,9 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
   // [lubricant]
-  r.push_back(choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
-                     "viscosity law: barus exp(alpha_bar P), or roelands (needs eta0, z, ph_star)"));
+  r.push_back(
+      choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
+             "viscosity law: barus exp(alpha_bar P), or roelands (needs eta0, z, ph_star)"));
   r.push_back(choice("lubricant.density", kIncompressible,
                      {std::string(kIncompressible), std::string(kDowsonHigginson)},
                      "density law: incompressible, or dowson-higginson (needs ph_star)"));
@@ -260,14 +267,14 @@ std::vector<ParameterSpec> build_registry() {
                    "roelands: ambient viscosity"));
   r.push_back(real("lubricant.z", no_default, "from lubricant.alpha", at_least(0), none, "",
                    "roelands: pressure-viscosity index z (or give lubricant.alpha)"));
-  r.push_back(real("lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star",
-                   at_least(0), none, "1/Pa",
-                   "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
+  r.push_back(real(
+      "lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star", at_least(0), none,
+      "1/Pa", "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
   r.push_back(real("lubricant.ph_star", no_default, "ph* of [physical]", above(0), none, "Pa",
                    "reference Hertz pressure, needed by roelands and dowson-higginson"));
   // [body]
-  r.push_back(boolean("body.elastic", true,
-                      "elastic deformation of the surfaces (false: rigid bodies)"));
+  r.push_back(
+      boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
   // [grid]
   r.push_back(integer("grid.points", kDefaultGridPoints, at_least(kMinGridPoints),
                       at_most(kMaxGridPoints), true, "points per side of the square grid"));
@@ -327,8 +334,8 @@ std::vector<ParameterSpec> build_registry() {
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
                       "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
-  r.push_back(integer("solver.coarsest_points", kDefaultCoarsestPoints, at_least(kMinCoarsestPoints),
-                      at_most(kMaxGridPoints), true,
+  r.push_back(integer("solver.coarsest_points", kDefaultCoarsestPoints,
+                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
                       "points per side of the coarsest multigrid level (<= grid.points)"));
   r.push_back(choice("solver.deformation", kFft, {std::string(kFft), std::string(kDirect)},
                      "deformation integrals: fft (zero-padded FFT convolution) or direct"));
@@ -337,8 +344,8 @@ std::vector<ParameterSpec> build_registry() {
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
                    "times the elastic-squeeze coefficient, else by distributive Jacobi (on "
                    "meshes finer than 3/256: this times (3/256) / h)"));
-  r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0),
-                   at_most(1), "", "under-relaxation of the Gauss-Seidel line changes"));
+  r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0), at_most(1),
+                   "", "under-relaxation of the Gauss-Seidel line changes"));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
   r.push_back(choice("solver.line_directions",
@@ -375,8 +382,10 @@ std::string interval_text(const std::optional<Bound>& lower, const std::optional
     return fmt::format("in {}{}, {}{}", lower->inclusive ? "[" : "(", format_number(lower->value),
                        format_number(upper->value), upper->inclusive ? "]" : ")");
   }
-  if (lower) return fmt::format("{} {}", lower->inclusive ? ">=" : ">", format_number(lower->value));
-  if (upper) return fmt::format("{} {}", upper->inclusive ? "<=" : "<", format_number(upper->value));
+  if (lower)
+    return fmt::format("{} {}", lower->inclusive ? ">=" : ">", format_number(lower->value));
+  if (upper)
+    return fmt::format("{} {}", upper->inclusive ? "<=" : "<", format_number(upper->value));
   return {};
 }
 
@@ -569,7 +578,8 @@ Given convert(const ParameterSpec& spec, const toml::node& node) {
     }
     case ParameterType::Enum: {
       const auto* v = node.as_string();
-      if (!v || std::find(spec.choices.begin(), spec.choices.end(), v->get()) == spec.choices.end()) {
+      if (!v ||
+          std::find(spec.choices.begin(), spec.choices.end(), v->get()) == spec.choices.end()) {
         fail("must be " + spec.allowed());
       }
       g.value = v->get();
@@ -601,8 +611,9 @@ Given convert(const ParameterSpec& spec, const toml::node& node) {
       const bool fits = *v >= static_cast<double>(std::numeric_limits<int>::min()) &&
                         *v <= static_cast<double>(std::numeric_limits<int>::max());
       if (!fits) fail("is too large (must fit in a 32-bit integer)");
-      const bool ok = in_interval(spec.lower, spec.upper, *v) &&
-                      (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
+      const bool ok =
+          in_interval(spec.lower, spec.upper, *v) &&
+          (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
       if (!ok) fail("must be " + spec.allowed());
       g.value = static_cast<int>(*v);
       break;
@@ -638,7 +649,8 @@ std::string read_config_text(const std::filesystem::path& path) {
   };
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw cannot_read("is a directory");
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
+                                                       &std::fclose);
   if (!file) throw cannot_read(std::generic_category().message(errno));
   std::string text;
   constexpr std::size_t kChunk = 1 << 16;
@@ -677,9 +689,11 @@ void apply_override(toml::table& root, const std::string& assignment) {
     if (b == std::string_view::npos) return std::string();
     return std::string(s.substr(b, s.find_last_not_of(kSpace) - b + 1));
   };
-  const std::string key = eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
+  const std::string key =
+      eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
   if (key.empty()) {
-    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20", assignment));
+    throw ConfigError(
+        fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20", assignment));
   }
   const std::string value = trim(std::string_view(assignment).substr(eq + 1));
 
@@ -705,8 +719,8 @@ void apply_override(toml::table& root, const std::string& assignment) {
     }
     target = existing->as_table();
     if (!target) {
-      fail_value(section, node_text(*existing), fmt::format("must be a table (section [{}])", section),
-                 node_origin(*existing));
+      fail_value(section, node_text(*existing),
+                 fmt::format("must be a table (section [{}])", section), node_origin(*existing));
     }
   }
   if (parsed) {
@@ -727,10 +741,10 @@ GivenMap collect(const toml::table& root) {
       if (table && !table->empty()) {
         const auto first = table->cbegin();
         const std::string key = section + "." + std::string(first->first.str());
-        throw ConfigError(fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}",
-                                      key, section, section_list(),
-                                      origin_suffix(node_origin(first->second))),
-                          key);
+        throw ConfigError(
+            fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}", key,
+                        section, section_list(), origin_suffix(node_origin(first->second))),
+            key);
       }
       if (table) {
         throw ConfigError(fmt::format("unknown section '[{}]' (known sections: {}){}", section,
@@ -738,13 +752,14 @@ GivenMap collect(const toml::table& root) {
                           section);
       }
       throw ConfigError(
-          fmt::format("unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
-                      section, section_list(), origin_suffix(node_origin(section_node))),
+          fmt::format(
+              "unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
+              section, section_list(), origin_suffix(node_origin(section_node))),
           section);
     }
     if (!table) {
-      fail_value(section, node_text(section_node), fmt::format("must be a table (section [{}])", section),
-                 node_origin(section_node));
+      fail_value(section, node_text(section_node),
+                 fmt::format("must be a table (section [{}])", section), node_origin(section_node));
     }
     for (auto&& [name, node] : *table) {
       const std::string key = section + "." + std::string(name.str());
@@ -838,11 +853,13 @@ void assemble_case(const Inputs& in, ImpactConfig& c) {
                     ? in.real("physical.ball_mass")
                     : sphere_mass(p.reduced_radius_m, in.real("physical.ball_density"));
     p.impact_speed_m_s = in.required_real("physical.impact_speed", why);
-    static constexpr std::string_view modulus_keys[] = {"physical.E1", "physical.nu1", "physical.E2",
-                                                        "physical.nu2"};
+    static constexpr std::string_view modulus_keys[] = {"physical.E1", "physical.nu1",
+                                                        "physical.E2", "physical.nu2"};
     if (in.has("physical.reduced_modulus")) {
       for (const auto key : modulus_keys) {
-        if (in.has(key)) in.fail(std::string(key), "give either physical.reduced_modulus or E1, nu1, E2, nu2, not both");
+        if (in.has(key))
+          in.fail(std::string(key),
+                  "give either physical.reduced_modulus or E1, nu1, E2, nu2, not both");
       }
       p.reduced_modulus_Pa = in.real("physical.reduced_modulus");
     } else {
@@ -890,14 +907,14 @@ void assemble_case(const Inputs& in, ImpactConfig& c) {
 
 void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
   c.viscosity = in.get<std::string>("lubricant.viscosity") == kRoelands ? ViscosityModel::Roelands
-                                                                      : ViscosityModel::Barus;
+                                                                        : ViscosityModel::Barus;
   c.density = in.get<std::string>("lubricant.density") == kDowsonHigginson
                   ? DensityModel::DowsonHigginson
                   : DensityModel::Incompressible;
   const bool roelands = c.viscosity == ViscosityModel::Roelands;
   const bool dowson_higginson = c.density == DensityModel::DowsonHigginson;
-  const std::string user = roelands ? "lubricant.viscosity = \"roelands\""
-                                    : "lubricant.density = \"dowson-higginson\"";
+  const std::string user =
+      roelands ? "lubricant.viscosity = \"roelands\"" : "lubricant.density = \"dowson-higginson\"";
 
   // Inputs the [physical] section already fixes.
   if (c.physical) {
@@ -905,8 +922,10 @@ void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
       if (in.has(key)) in.fail(key, "is given by the [physical] section; remove one of them");
     }
   }
-  c.ph_star_Pa = c.physical ? c.physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
-  c.eta0_Pa_s = c.physical ? c.physical->eta0_Pa_s : in.optional_real("lubricant.eta0").value_or(0.0);
+  c.ph_star_Pa =
+      c.physical ? c.physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
+  c.eta0_Pa_s =
+      c.physical ? c.physical->eta0_Pa_s : in.optional_real("lubricant.eta0").value_or(0.0);
   c.roelands_z = 0.0;
   if ((roelands || dowson_higginson) && !(c.ph_star_Pa > 0.0)) {
     throw ConfigError(fmt::format("lubricant.ph_star is required by {} (reference Hertz pressure "
@@ -933,8 +952,9 @@ void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
     c.roelands_z = *z;
   } else {
     // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
-    const double alpha = c.physical ? c.physical->alpha_per_Pa
-                                    : in.optional_real("lubricant.alpha").value_or(c.alpha_bar / c.ph_star_Pa);
+    const double alpha =
+        c.physical ? c.physical->alpha_per_Pa
+                   : in.optional_real("lubricant.alpha").value_or(c.alpha_bar / c.ph_star_Pa);
     c.roelands_z = Lubricant::roelands_z_from_alpha(alpha, c.eta0_Pa_s);
   }
 }
@@ -969,8 +989,9 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.T_end = in.optional_real("time.T_end").value_or(std::numeric_limits<double>::infinity());
   c.Delta0 = in.real("time.Delta0");
   c.V0 = in.real("time.V0");
-  c.max_steps = in.has("time.max_steps") ? in.get<int>("time.max_steps")
-                                        : default_max_steps(c.Delta0, c.V0, effective_time_step(c));
+  c.max_steps = in.has("time.max_steps")
+                    ? in.get<int>("time.max_steps")
+                    : default_max_steps(c.Delta0, c.V0, effective_time_step(c));
   c.waviness_amplitude = in.real("surface.waviness_amplitude");
   c.waviness_wavelength = in.real("surface.waviness_wavelength");
   c.waviness_angle_deg = in.real("surface.waviness_angle_deg");
@@ -993,16 +1014,18 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
-                                                                      : DeformationMethod::Fft;
+                                                                       : DeformationMethod::Fft;
 
   check_undeformed_gap(in, c);
   if (c.coarsest_points > c.grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", c.grid_points));
   }
   if (c.pre_sweeps + c.post_sweeps < 1) {
-    const std::string key = in.has("solver.post_sweeps") ? "solver.post_sweeps" : "solver.pre_sweeps";
-    in.fail(key, fmt::format("solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are {} and {})",
-                             c.pre_sweeps, c.post_sweeps));
+    const std::string key =
+        in.has("solver.post_sweeps") ? "solver.post_sweeps" : "solver.pre_sweeps";
+    in.fail(key,
+            fmt::format("solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are {} and {})",
+                        c.pre_sweeps, c.post_sweeps));
   }
 }
 
@@ -1050,11 +1073,16 @@ std::string describe_parameters() {
       "the file, in order). Defaults give the paper's case M = 100, L = 10 on 257^2 points.\n";
   const auto type_name = [](const ParameterSpec& s) -> std::string {
     switch (s.type) {
-      case ParameterType::Float: return "float";
-      case ParameterType::Int: return "integer";
-      case ParameterType::Bool: return "bool";
-      case ParameterType::Enum: return "string";
-      case ParameterType::FloatArray: return "float array";
+      case ParameterType::Float:
+        return "float";
+      case ParameterType::Int:
+        return "integer";
+      case ParameterType::Bool:
+        return "bool";
+      case ParameterType::Enum:
+        return "string";
+      case ParameterType::FloatArray:
+        return "float array";
     }
     return {};
   };
@@ -1091,12 +1119,17 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["case"] = {{"M", c.M}, {"L", c.L}, {"lambda_bar", c.lambda_bar}, {"alpha_bar", c.alpha_bar}};
   if (c.physical) {
     const PhysicalCase& p = *c.physical;
-    j["physical"] = {{"reduced_radius", p.reduced_radius_m}, {"ball_mass", p.mass_kg},
-                     {"impact_speed", p.impact_speed_m_s}, {"reduced_modulus", p.reduced_modulus_Pa},
-                     {"eta0", p.eta0_Pa_s},                 {"alpha", p.alpha_per_Pa}};
+    j["physical"] = {{"reduced_radius", p.reduced_radius_m},
+                     {"ball_mass", p.mass_kg},
+                     {"impact_speed", p.impact_speed_m_s},
+                     {"reduced_modulus", p.reduced_modulus_Pa},
+                     {"eta0", p.eta0_Pa_s},
+                     {"alpha", p.alpha_per_Pa}};
     if (p.rho0_kg_m3 > 0.0) j["physical"]["rho0"] = p.rho0_kg_m3;
-    j["scales"] = {{"delta_star_m", p.delta_star_m}, {"a_star_m", p.a_star_m},
-                   {"ph_star_Pa", p.ph_star_Pa},     {"F_star_N", p.F_star_N},
+    j["scales"] = {{"delta_star_m", p.delta_star_m},
+                   {"a_star_m", p.a_star_m},
+                   {"ph_star_Pa", p.ph_star_Pa},
+                   {"F_star_N", p.F_star_N},
                    {"t_bar_s", p.t_bar_s}};
   }
   j["lubricant"] = {{"viscosity", viscosity_model_text(c.viscosity)},
@@ -1119,22 +1152,22 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["output"] = {{"snapshot_every", c.snapshot_every},
                  {"snapshot_times", c.snapshot_times},
                  {"checkpoint_every", c.checkpoint_every}};
-  j["solver"] = {{"cycle", cycle_type_text(c.cycle)},
-                 {"tolerance", c.tolerance},
-                 {"max_cycles", c.max_cycles},
-                 {"correction_safeguard", c.correction_safeguard},
-                 {"retry_damping", c.retry_damping},
-                 {"pre_sweeps", c.pre_sweeps},
-                 {"post_sweeps", c.post_sweeps},
-                 {"coarsest_points", c.coarsest_points},
-                 {"deformation", deformation_method_text(c.deformation)},
-                 {"switch_ratio", c.relaxation.switch_ratio},
-                 {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
-                 {"omega_jacobi", c.relaxation.omega_jacobi},
-                 {"line_directions",
-                  c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
-                 {"symmetry", c.use_symmetry ? kSymmetryAuto : kSymmetryOff},
-                 {"face_mean", face_mean_text(c.face_mean)}};
+  j["solver"] = {
+      {"cycle", cycle_type_text(c.cycle)},
+      {"tolerance", c.tolerance},
+      {"max_cycles", c.max_cycles},
+      {"correction_safeguard", c.correction_safeguard},
+      {"retry_damping", c.retry_damping},
+      {"pre_sweeps", c.pre_sweeps},
+      {"post_sweeps", c.post_sweeps},
+      {"coarsest_points", c.coarsest_points},
+      {"deformation", deformation_method_text(c.deformation)},
+      {"switch_ratio", c.relaxation.switch_ratio},
+      {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
+      {"omega_jacobi", c.relaxation.omega_jacobi},
+      {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
+      {"symmetry", c.use_symmetry ? kSymmetryAuto : kSymmetryOff},
+      {"face_mean", face_mean_text(c.face_mean)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
                 {"max_window_meshes", c.spike.max_window_meshes},

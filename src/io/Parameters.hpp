@@ -13,14 +13,13 @@
 // a bare word is taken as a string, so `--set lubricant.viscosity=roelands`
 // works without quotes).  Overrides are applied after the file, in order.
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <variant>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "impact/ImpactConfig.hpp"
 
@@ -52,17 +51,17 @@ struct Bound {
 };
 
 struct ParameterSpec {
-  std::string key;                              ///< "section.name"
+  std::string key;  ///< "section.name"
   ParameterType type = ParameterType::Float;
   std::optional<ParameterValue> default_value;  ///< none: optional input or derived
   std::string default_text;                     ///< shown by --help when there is no default value
   std::optional<Bound> lower;                   ///< Float, Int, FloatArray entries
   std::optional<Bound> upper;
-  bool power_of_two_plus_one = false;           ///< Int: 2^k + 1
-  bool allow_infinite = false;                  ///< Float: +inf allowed
-  std::vector<std::string> choices;             ///< Enum: the allowed strings
-  std::string units;                            ///< physical units, "" if dimensionless
-  std::string doc;                              ///< one line
+  bool power_of_two_plus_one = false;  ///< Int: 2^k + 1
+  bool allow_infinite = false;         ///< Float: +inf allowed
+  std::vector<std::string> choices;    ///< Enum: the allowed strings
+  std::string units;                   ///< physical units, "" if dimensionless
+  std::string doc;                     ///< one line
 
   [[nodiscard]] std::string_view section() const;
   [[nodiscard]] std::string_view name() const;

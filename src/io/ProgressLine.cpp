@@ -1,10 +1,10 @@
 #include "io/ProgressLine.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include <fmt/format.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
 
 namespace ehlsim {
 
@@ -33,7 +33,8 @@ std::string format_duration(double seconds) {
   const auto total = static_cast<long>(std::lround(seconds));
   const long per_minute = static_cast<long>(kSecondsPerMinute);
   const long per_hour = static_cast<long>(kSecondsPerHour);
-  if (seconds < kSecondsPerHour) return fmt::format("{}m{:02}s", total / per_minute, total % per_minute);
+  if (seconds < kSecondsPerHour)
+    return fmt::format("{}m{:02}s", total / per_minute, total % per_minute);
   return fmt::format("{}h{:02}m", total / per_hour, (total % per_hour) / per_minute);
 }
 
@@ -55,16 +56,18 @@ ProgressLine::~ProgressLine() {
 
 std::string ProgressLine::text(const StepRecord& r, double elapsed, bool done) const {
   if (done) {
-    return fmt::format("T {:.4f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  done in {}",
-                       r.T, r.step, r.Delta, r.force, r.cycles, r.residual, format_duration(elapsed));
+    return fmt::format(
+        "T {:.4f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  done in {}", r.T,
+        r.step, r.Delta, r.force, r.cycles, r.residual, format_duration(elapsed));
   }
   const double T_est = estimate_end_time(r.T, r.Delta, r.dDelta_dT, T_end_, Delta0_, V0_);
   const double remaining = r.T > 0.0 ? elapsed * (T_est - r.T) / r.T : -1.0;
   const char* approx = std::isfinite(T_end_) ? "" : "~";
-  return fmt::format("T {:.4f}/{}{:.2f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  "
-                     "{}, {}{} left",
-                     r.T, approx, T_est, r.step, r.Delta, r.force, r.cycles, r.residual,
-                     format_duration(elapsed), approx, format_duration(remaining));
+  return fmt::format(
+      "T {:.4f}/{}{:.2f}  step {}  Delta {:.4f}  force {:.4g}  cycles {}  res {:.1e}  "
+      "{}, {}{} left",
+      r.T, approx, T_est, r.step, r.Delta, r.force, r.cycles, r.residual, format_duration(elapsed),
+      approx, format_duration(remaining));
 }
 
 void ProgressLine::print(const StepRecord& record, double elapsed, bool done) {
@@ -93,7 +96,8 @@ void ProgressLine::update(const StepRecord& record) {
 void ProgressLine::finish() {
   if (!enabled_ || stream_ == nullptr) return;
   if (pending_ || (printed_ && terminal_)) {
-    print(last_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(), true);
+    print(last_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
+          true);
   }
   if (printed_ && terminal_) std::fputc('\n', stream_);
   std::fflush(stream_);

@@ -1,10 +1,10 @@
 #include "io/RunAnalysis.hpp"
 
-#include <fstream>
-#include <optional>
-
 #include <fmt/format.h>
+
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/FieldReader.hpp"
@@ -21,9 +21,10 @@ constexpr std::string_view kSpikeSection = "spike.";
 nlohmann::json read_run_json(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) {
-    throw ConfigError(fmt::format("cannot read '{}': not a complete ehlsim run directory (run.json "
-                                  "is written last, when the run has finished)",
-                                  path.string()));
+    throw ConfigError(
+        fmt::format("cannot read '{}': not a complete ehlsim run directory (run.json "
+                    "is written last, when the run has finished)",
+                    path.string()));
   }
   try {
     return nlohmann::json::parse(in);
@@ -47,9 +48,10 @@ std::vector<std::string> spike_overrides(const nlohmann::json& run,
   }
   for (const std::string& assignment : extra) {
     if (assignment.rfind(kSpikeSection, 0) != 0) {
-      throw ConfigError(fmt::format("--set '{}': only spike.* keys apply to an analysis of a "
-                                    "finished run",
-                                    assignment));
+      throw ConfigError(
+          fmt::format("--set '{}': only spike.* keys apply to an analysis of a "
+                      "finished run",
+                      assignment));
     }
     out.push_back(assignment);
   }
@@ -61,8 +63,8 @@ double run_parameter(const nlohmann::json& run, const char* section, const char*
   try {
     return run.at("parameters").at(section).at(key).get<double>();
   } catch (const nlohmann::json::exception&) {
-    throw ConfigError(fmt::format("cannot read '{}': no number parameters.{}.{}", path.string(),
-                                  section, key));
+    throw ConfigError(
+        fmt::format("cannot read '{}': no number parameters.{}.{}", path.string(), section, key));
   }
 }
 
@@ -73,8 +75,8 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
                                         const std::vector<std::string>& overrides) {
   std::error_code ec;
   if (!std::filesystem::is_directory(run_dir, ec)) {
-    throw ConfigError(fmt::format("run directory '{}' does not exist or is not a directory",
-                                  run_dir.string()));
+    throw ConfigError(
+        fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
   }
   const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
   const nlohmann::json run = read_run_json(run_file);
@@ -98,7 +100,8 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
   ProfileWriter axis(report.files[2], "T,X,P");
   for (std::size_t k = 0; k < fields->times().size(); ++k) {
     const double T = fields->times()[k];
-    const SpikeAnalysis analysis = analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
+    const SpikeAnalysis analysis =
+        analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
     series.append(spike_sample(T, analysis, dry));
     radial.append(T, analysis.filtered);
     axis.append(T, analysis.axis);

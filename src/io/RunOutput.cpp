@@ -28,8 +28,8 @@ nlohmann::json number_or_null(double v) {
 
 }  // namespace
 
-RunOutput::RunOutput(std::filesystem::path directory, const ImpactConfig& config, bool show_progress,
-                     nlohmann::json invocation)
+RunOutput::RunOutput(std::filesystem::path directory, const ImpactConfig& config,
+                     bool show_progress, nlohmann::json invocation)
     : directory_(std::move(directory)),
       config_(config),
       invocation_(std::move(invocation)),

@@ -17,11 +17,10 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactObserver.hpp"

@@ -1,9 +1,9 @@
 #include "io/SpikeWriter.hpp"
 
+#include <fmt/format.h>
+
 #include <optional>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 namespace ehlsim {
 

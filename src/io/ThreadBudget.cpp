@@ -23,8 +23,7 @@ constexpr double kSampleSeconds = 0.2;
 constexpr std::size_t kSamples = 5;
 
 double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 /// procs_running of /proc/stat, or -1.
@@ -82,9 +81,8 @@ int ThreadBudget::update(const RunnableTasks& sample) {
   if (sample.machine < 0 || sample.own < 0) return threads_;  // no /proc: keep the team
   others_.push_back(std::max(0, sample.machine - sample.own));
   if (others_.size() > kSamples) others_.pop_front();
-  const double mean =
-      static_cast<double>(std::accumulate(others_.begin(), others_.end(), 0)) /
-      static_cast<double>(others_.size());
+  const double mean = static_cast<double>(std::accumulate(others_.begin(), others_.end(), 0)) /
+                      static_cast<double>(others_.size());
   // Cores the others leave free, rounded to the nearest whole core.
   const int free_cores = cores_ - static_cast<int>(mean + 0.5);
   threads_ = std::clamp(free_cores, 1, cores_);

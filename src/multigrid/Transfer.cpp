@@ -21,11 +21,11 @@ void restrict_full_weighting(const Field& fine, Field& coarse) {
   for (int J = first; J < nc - 1; ++J) {
     for (int I = first; I < nc - 1; ++I) {
       const int i = 2 * I, j = 2 * J;
-      coarse(I, J) = (4.0 * fine(i, j) +
-                      2.0 * (fine(i - 1, j) + fine(i + 1, j) + fine(i, j - 1) + fine(i, j + 1)) +
-                      fine(i - 1, j - 1) + fine(i + 1, j - 1) + fine(i - 1, j + 1) +
-                      fine(i + 1, j + 1)) /
-                     16.0;
+      coarse(I, J) =
+          (4.0 * fine(i, j) +
+           2.0 * (fine(i - 1, j) + fine(i + 1, j) + fine(i, j - 1) + fine(i, j + 1)) +
+           fine(i - 1, j - 1) + fine(i + 1, j - 1) + fine(i - 1, j + 1) + fine(i + 1, j + 1)) /
+          16.0;
     }
   }
 }

@@ -16,7 +16,9 @@ class BandMatrix {
       : m_(size), b_(half_band), band_(static_cast<std::size_t>(size) * (2 * half_band + 1), 0.0) {}
   [[nodiscard]] int size() const { return m_; }
   [[nodiscard]] int half_band() const { return b_; }
-  double& operator()(int i, int k) { return band_[static_cast<std::size_t>(i) * (2 * b_ + 1) + (k - i + b_)]; }
+  double& operator()(int i, int k) {
+    return band_[static_cast<std::size_t>(i) * (2 * b_ + 1) + (k - i + b_)];
+  }
   void clear() { std::fill(band_.begin(), band_.end(), 0.0); }
 
   /// Solves A x = rhs by banded Gaussian elimination (destroys A); rhs becomes x.

@@ -18,7 +18,8 @@ constexpr int kMaxActiveSetPasses = 4;
 struct GridPoint {
   int i, j;
 };
-/// Point a (first interior..n-2) of grid line `line`: (a, line) on an X line, (line, a) on a Y line.
+/// Point a (first interior..n-2) of grid line `line`: (a, line) on an X line, (line, a) on a Y
+/// line.
 GridPoint line_point(LineDirection direction, int line, int a) {
   return direction == LineDirection::X ? GridPoint{a, line} : GridPoint{line, a};
 }
@@ -30,18 +31,26 @@ LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings
   // distributed one (-1/4 at the four neighbours).
   for (int d = 0; d <= kHalfBand; ++d) {
     kernel_plain_[d] = op_.kernel(d, 0);
-    kernel_distributed_[d] = op_.kernel(d, 0) - kDistribution * (op_.kernel(d - 1, 0) +
-                                                                 op_.kernel(d + 1, 0) +
-                                                                 2.0 * op_.kernel(d, 1));
+    kernel_distributed_[d] =
+        op_.kernel(d, 0) -
+        kDistribution * (op_.kernel(d - 1, 0) + op_.kernel(d + 1, 0) + 2.0 * op_.kernel(d, 1));
   }
 }
 
 /// The work arrays of one line (one set per thread): `count` unknowns.
 struct LineRelaxation::LineWork {
   explicit LineWork(int count)
-      : rhs(count), cw(count), ce(count), cs(count), cn(count), fixed_change(count),
-        residual(count), is_jacobi(count), A(count, kHalfBand), work(count, kHalfBand) {}
-  std::vector<double> rhs;  ///< residual in, the line's changes out
+      : rhs(count),
+        cw(count),
+        ce(count),
+        cs(count),
+        cn(count),
+        fixed_change(count),
+        residual(count),
+        is_jacobi(count),
+        A(count, kHalfBand),
+        work(count, kHalfBand) {}
+  std::vector<double> rhs;             ///< residual in, the line's changes out
   std::vector<double> cw, ce, cs, cn;  ///< face coefficients / h^2: back, forward, across
   std::vector<double> fixed_change;    ///< NaN, or the change a projected point is held to
   std::vector<double> residual;
@@ -100,9 +109,9 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     }
     jac += colour_jac;
     if (colour_jac == 0) continue;
-    // Distributive changes: delta at the point, -delta/4 at each neighbour
-    // (across a symmetry axis the neighbour is the mirror image, whose change
-    // equals the point's own).
+      // Distributive changes: delta at the point, -delta/4 at each neighbour
+      // (across a symmetry axis the neighbour is the mirror image, whose change
+      // equals the point's own).
 #pragma omp parallel for schedule(static) if (threaded)
     for (int j = first; j < n - 1; ++j) {
       for (int i = first; i < n - 1; ++i) {
@@ -164,9 +173,8 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   solve_projected(P, line, direction, lw);
 }
 
-double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown,
-                                      double elastic_scale, double self,
-                                      const LineWork& lw) const {
+double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown, double elastic_scale,
+                                      double self, const LineWork& lw) const {
   // d N_r / d (the change of the unknown at `offset` along the line from r).
   const int d = std::abs(offset);
   if (!jacobi_unknown) {
@@ -188,8 +196,7 @@ double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown,
   return value;
 }
 
-void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction,
-                                            LineWork& lw) const {
+void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction, LineWork& lw) const {
   // Row r: the derivatives of N at point p = r + first with respect to the
   // changes of the unknowns within the band.  On a mirrored grid the unknown
   // q stands for the full line's points q and -q, which change alike: the
@@ -210,11 +217,13 @@ void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction,
     const int p = r + first;
     const auto [i, j] = line_point(direction, line, p);
     const double elastic_scale = -squeeze * rho(i, j);
-    const double self = -(lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r]) - squeeze * drho(i, j) * H(i, j);
+    const double self =
+        -(lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r]) - squeeze * drho(i, j) * H(i, j);
     for (int c = p - kHalfBand; c <= p + kHalfBand; ++c) {
       const int q = grid.mirrored ? std::abs(c) : c;
       if (q < first || q > n - 2) continue;
-      A(r, q - first) += jacobian_entry(r, c - p, lw.is_jacobi[q - first] != 0, elastic_scale, self, lw);
+      A(r, q - first) +=
+          jacobian_entry(r, c - p, lw.is_jacobi[q - first] != 0, elastic_scale, self, lw);
     }
   }
 }

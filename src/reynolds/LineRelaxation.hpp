@@ -77,9 +77,8 @@ class LineRelaxation {
   /// The banded Jacobian of the line's residuals with respect to the changes.
   void assemble_line_jacobian(int line, LineDirection direction, LineWork& work) const;
   /// One entry of it: row r, the unknown `offset` points along the line.
-  [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown,
-                                      double elastic_scale, double self,
-                                      const LineWork& work) const;
+  [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown, double elastic_scale,
+                                      double self, const LineWork& work) const;
   /// Solves the line system with the points held at P = 0 by the projection.
   void solve_projected(const Field& P, int line, LineDirection direction, LineWork& work) const;
 

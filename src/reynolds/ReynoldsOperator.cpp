@@ -48,8 +48,8 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
   // on a coarse grid, the FAS right-hand side and the first sweep), with at
   // most Delta changed in between: the deformation and the rheology are then
   // reused and only the film is recomputed.
-  if (!(pressure_terms_valid_ && std::equal(P.span().begin(), P.span().end(),
-                                            pressure_of_terms_.span().begin()))) {
+  if (!(pressure_terms_valid_ &&
+        std::equal(P.span().begin(), P.span().end(), pressure_of_terms_.span().begin()))) {
     update_pressure_terms(P);
   }
   update_film();

@@ -60,8 +60,8 @@ struct Waviness {
 
 struct OperatorSettings {
   double lambda_bar = 1.0;
-  bool elastic = true;     ///< false: rigid bodies, W = 0
-  bool use_fft = true;     ///< FFT convolution (fast) or direct summation (reference)
+  bool elastic = true;  ///< false: rigid bodies, W = 0
+  bool use_fft = true;  ///< FFT convolution (fast) or direct summation (reference)
   Waviness waviness;
   FaceMean face_mean = FaceMean::Arithmetic;
 };
@@ -88,7 +88,10 @@ class ReynoldsOperator {
   }
 
   /// BDF coefficient b0 of the new level and the time step (d/dT ~ (b0 u^{n+1} + ...)/dT).
-  void set_time_step(double dT, double b0) { dT_ = dT; b0_ = b0; }
+  void set_time_step(double dT, double b0) {
+    dT_ = dT;
+    b0_ = b0;
+  }
   [[nodiscard]] double squeeze_coefficient() const { return b0_ / dT_; }
   void set_delta(double Delta) { delta_ = Delta; }
   [[nodiscard]] double delta() const { return delta_; }

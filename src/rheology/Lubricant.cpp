@@ -21,8 +21,8 @@ void Lubricant::validate() const {
       throw std::invalid_argument("Lubricant: Roelands needs eta0 > 6.31e-5 Pa s");
     if (!(roelands_z > 0.0)) throw std::invalid_argument("Lubricant: Roelands needs z > 0");
   }
-  const bool needs_ph = viscosity == ViscosityModel::Roelands ||
-                        density == DensityModel::DowsonHigginson;
+  const bool needs_ph =
+      viscosity == ViscosityModel::Roelands || density == DensityModel::DowsonHigginson;
   if (needs_ph && !(ph_star_Pa > 0.0))
     throw std::invalid_argument("Lubricant: Roelands / Dowson-Higginson need ph* > 0");
 }

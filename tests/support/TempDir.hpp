@@ -1,7 +1,6 @@
 #pragma once
 // A fresh directory per test, removed with everything in it at the end.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <filesystem>
