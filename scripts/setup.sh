@@ -13,6 +13,7 @@ PACKAGES=(
   nlohmann-json3-dev      # run.json
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
   python3-matplotlib python3-numpy            # figures (Debian's own python3)
+  clang-format            # the layout check of .ci/run
 )
 
 missing=()
