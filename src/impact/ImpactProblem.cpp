@@ -110,6 +110,11 @@ struct ImpactProblem::Impl {
   double solve_time_step(int step, const BallState& ball, double force_guess);
   /// The quasi-static film pressure at T = 0; returns its force.
   double solve_initial_pressure();
+  /// Chooses the initial approximation of step `step` (the last pressure or
+  /// its extrapolation in time) and returns its residual.
+  double choose_start(int step);
+  /// The attempts of one step from the chosen start; returns the new force.
+  double solve_with_retries(int step, const BallState& ball);
   /// The multigrid cycles of one step from the current approximation; false
   /// when max_cycles ended above the tolerance.  Throws on divergence.
   bool iterate_time_step(int step, const BallState& ball);
@@ -214,6 +219,11 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball, dou
   // (Newmark); the coupling is weak (dDelta/dforce = beta dT^2 3/(2 pi)), so a
   // fixed-point update of Delta after each cycle converges in a few cycles.
   set_delta(newmark.delta_for_force(ball, force_guess));
+  start_residual = choose_start(step);
+  return solve_with_retries(step, ball);
+}
+
+double ImpactProblem::Impl::choose_start(int step) {
   if (step > 2) {
     // Linear extrapolation in time of the pressure: the initial approximation
     // is then O(dT^2) from the new solution instead of O(dT) where the
@@ -226,22 +236,24 @@ double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball, dou
     Field& P = solver->solution();
     const Field last = P;
     for (std::size_t k = 0; k < P.size(); ++k) P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
-    start_residual = solver->residual_norm();
+    double residual = solver->residual_norm();
     const Field extrapolated = P;
     P = last;
     const double last_start_residual = solver->residual_norm();
-    if (last_start_residual < start_residual) {
-      start_residual = last_start_residual;
+    if (last_start_residual < residual) {
+      residual = last_start_residual;
     } else {
       P = extrapolated;
     }
     P_before = last;
-  } else {
-    // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
-    P_before = solver->solution();
-    start_residual = solver->residual_norm();
+    return residual;
   }
+  // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
+  P_before = solver->solution();
+  return solver->residual_norm();
+}
 
+double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) {
   // Cycles until the tolerance.  Should the iteration diverge or stall above
   // the tolerance (the highly nonlinear moments: dimple formation, the spike
   // and the collapse of the entrapped pocket before lift-off), the step starts
