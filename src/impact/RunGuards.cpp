@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "reynolds/ReynoldsOperator.hpp"
+
 namespace ehlsim {
 
 namespace {
@@ -57,9 +59,8 @@ std::string where(const StepRecord& r) {
 }  // namespace
 
 double waviness_height(const ImpactConfig& c, double x, double y) {
-  const double angle = c.waviness_angle_deg * std::numbers::pi / 180.0;
-  const double k = 2.0 * std::numbers::pi / c.waviness_wavelength;
-  return c.waviness_amplitude * std::cos(k * (std::cos(angle) * x + std::sin(angle) * y));
+  return reynolds::Waviness{c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg}
+      .height(x, y);
 }
 
 double elastic_energy(const Grid2D& grid, const Field& P, const Field& W) {

@@ -21,7 +21,7 @@
 namespace ehlsim {
 
 /// Height A_w cos(2 pi (X cos th + Y sin th) / wavelength) of the surface
-/// waviness at (x, y) (model.md; the same formula as reynolds/ReynoldsOperator).
+/// waviness at (x, y) (model.md): reynolds::Waviness::height, the operator's own.
 [[nodiscard]] double waviness_height(const ImpactConfig& c, double x, double y);
 
 /// Elastic energy (3 / (4 pi)) h^2 sum P W of the solids (W the deformation,

@@ -26,14 +26,10 @@ ReynoldsOperator::ReynoldsOperator(const Grid2D& grid, const Lubricant& lubrican
       xi_(grid),
       rho_over_eta_lambda_(grid) {
   if (settings_.elastic) deformation_ = make_deformation(grid_, settings_.use_fft);
-  const Waviness& w = settings_.waviness;
-  const double angle = w.angle_deg * std::numbers::pi / 180.0;
-  const double kx = 2.0 * std::numbers::pi * std::cos(angle) / w.wavelength;
-  const double ky = 2.0 * std::numbers::pi * std::sin(angle) / w.wavelength;
   for (int j = 0; j < grid_.n; ++j) {
     for (int i = 0; i < grid_.n; ++i) {
       const double x = grid_.x(i), y = grid_.y(j);
-      shape_(i, j) = 0.5 * (x * x + y * y) + w.amplitude * std::cos(kx * x + ky * y);
+      shape_(i, j) = 0.5 * (x * x + y * y) + settings_.waviness.height(x, y);
     }
   }
 }

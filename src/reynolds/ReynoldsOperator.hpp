@@ -15,6 +15,7 @@
 // (H, rho, xi) for the relaxation.
 #include <cmath>
 #include <memory>
+#include <numbers>
 
 #include "elastic/Deformation.hpp"
 #include "grid/Grid.hpp"
@@ -56,6 +57,13 @@ struct Waviness {
   double amplitude = 0.0;
   double wavelength = 1.0;
   double angle_deg = 0.0;
+  /// The height of the waviness at (x, y).
+  [[nodiscard]] double height(double x, double y) const {
+    const double angle = angle_deg * std::numbers::pi / 180.0;
+    const double kx = 2.0 * std::numbers::pi * std::cos(angle) / wavelength;
+    const double ky = 2.0 * std::numbers::pi * std::sin(angle) / wavelength;
+    return amplitude * std::cos(kx * x + ky * y);
+  }
 };
 
 struct OperatorSettings {
