@@ -29,6 +29,7 @@
 #include "io/ProgressLine.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
+#include "io/ThreadBudget.hpp"
 #include "io/TimeSeriesWriter.hpp"
 #include "rheology/Lubricant.hpp"
 #include "support/SteelBall.hpp"
@@ -1091,3 +1092,37 @@ TEST(RunOutput, RunJsonHasNullForMissingLiftOff) {
 
 }  // namespace
 }  // namespace ehlsim
+
+// ---------------------------------------------------------------- thread budget
+
+namespace {
+using ehlsim::read_runnable_tasks;
+using ehlsim::RunnableTasks;
+using ehlsim::ThreadBudget;
+}  // namespace
+
+TEST(ThreadBudget, UsesTheCoresOtherProcessesLeaveFree) {
+  // Two cores.  Alone (only our own threads runnable): both.  One other
+  // busy process: one thread.  Three others: still one.  The decision
+  // follows the mean of the last five samples, so a single busy sample does
+  // not shrink the team, and the team grows back once the others are gone.
+  ThreadBudget budget(2, read_runnable_tasks, [](int) {});
+  EXPECT_EQ(budget.update({2, 2}), 2);
+  for (int k = 0; k < 5; ++k) budget.update({2, 1});  // one other task, our second thread asleep
+  EXPECT_EQ(budget.threads(), 1);
+  for (int k = 0; k < 5; ++k) budget.update({4, 1});
+  EXPECT_EQ(budget.threads(), 1);
+  for (int k = 0; k < 5; ++k) budget.update({1, 1});
+  EXPECT_EQ(budget.threads(), 2);
+  budget.update({2, 1});  // one busy sample among four quiet ones
+  EXPECT_EQ(budget.threads(), 2);
+  // No /proc: the team stays as it is.
+  EXPECT_EQ(budget.update({-1, -1}), 2);
+}
+
+TEST(ThreadBudget, ReadsThisMachine) {
+  const RunnableTasks tasks = read_runnable_tasks();
+  // This test's own thread is running while it reads.
+  EXPECT_GE(tasks.own, 1);
+  EXPECT_GE(tasks.machine, tasks.own);
+}
