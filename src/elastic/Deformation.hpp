@@ -75,6 +75,13 @@ enum class FftPlanning { Estimate, Measure };
 /// rows (r2c of the n data rows, then c2c of the columns), the inverse mirrors
 /// it, which saves about a quarter of the work of a plain 2-D transform.
 ///
+/// On a mirrored grid (Grid2D::mirrored, the quadrant of a pressure even in X
+/// and Y) the convolution is that of the even extensions: a 2-D DCT-I of the
+/// quadrant, the product with the same kernel spectrum, and a DCT-I back, on
+/// (m/2 + 1)^2 values instead of m^2 (docs/model.md, section 4).  Either way
+/// the transforms run in a fixed number of batches, so the result does not
+/// depend on the number of threads.
+///
 /// Plans and buffers are owned by the object (RAII).  FFTW's planner is not
 /// thread-safe: constructions and destructions of FftDeformation objects are
 /// serialised by an internal mutex, but must not race with FFTW planning done
