@@ -72,6 +72,28 @@ inline constexpr std::size_t kMinPointsForThreads = 64 * 64;
   return grid.size() >= kMinPointsForThreads;
 }
 
+/// The sum of value(i, j) over the interior points of the full grid that
+/// `grid` stands for: on a mirrored grid each point counts once per image (1
+/// at the centre, 2 on an axis, 4 elsewhere).  The rows are summed on the
+/// threads and the row sums in order on one, so the bits do not depend on the
+/// number of threads.  `value` must be safe to call from several threads.
+template <class Value>
+[[nodiscard]] double full_interior_sum(const Grid2D& grid, Value&& value) {
+  const int n = grid.n;
+  const int first = grid.first_interior();
+  std::vector<double> rows(static_cast<std::size_t>(n), 0.0);
+  const bool threaded = worth_threads(grid);
+#pragma omp parallel for schedule(static) if (threaded)
+  for (int j = first; j < n - 1; ++j) {
+    double row = 0.0;
+    for (int i = first; i < n - 1; ++i) row += grid.multiplicity(i) * value(i, j);
+    rows[j] = grid.multiplicity(j) * row;
+  }
+  double sum = 0.0;
+  for (int j = first; j < n - 1; ++j) sum += rows[j];
+  return sum;
+}
+
 /// True for n = 2^k + 1 with k >= 2.
 [[nodiscard]] inline bool is_power_of_two_plus_one(long n) {
   if (n < 5) return false;

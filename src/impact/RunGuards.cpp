@@ -64,14 +64,7 @@ double waviness_height(const ImpactConfig& c, double x, double y) {
 }
 
 double elastic_energy(const Grid2D& grid, const Field& P, const Field& W) {
-  // Over the full grid: on a mirrored grid a point counts for its images.
-  const int first = grid.first_interior();
-  double sum = 0.0;
-  for (int j = first; j < grid.n - 1; ++j) {
-    double row = 0.0;
-    for (int i = first; i < grid.n - 1; ++i) row += grid.multiplicity(i) * P(i, j) * W(i, j);
-    sum += grid.multiplicity(j) * row;
-  }
+  const double sum = full_interior_sum(grid, [&](int i, int j) { return P(i, j) * W(i, j); });
   return 3.0 / (4.0 * std::numbers::pi) * sum * grid.h() * grid.h();
 }
 

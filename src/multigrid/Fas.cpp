@@ -89,11 +89,7 @@ void FasLevel::correct(Field& u, const Field& correction) {
 
 double FasLevel::norm(const Field& r) {
   const Grid2D& g = grid();
-  const int n = g.n;
-  double sum = 0.0;
-  for (int j = g.first_interior(); j < n - 1; ++j)
-    for (int i = g.first_interior(); i < n - 1; ++i)
-      sum += g.multiplicity(i) * g.multiplicity(j) * r(i, j) * r(i, j);
+  const double sum = full_interior_sum(g, [&](int i, int j) { return r(i, j) * r(i, j); });
   const double count = g.full_interior();
   return std::sqrt(sum / (count * count));
 }

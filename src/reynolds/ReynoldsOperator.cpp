@@ -119,39 +119,19 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
 }
 
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {
-  // Over the full grid's interior: on a mirrored grid each point counts as
-  // many times as it has images.  The rows are summed on the threads, the
-  // row sums in order on one: the same bits on any number of threads.
-  const int n = grid_.n;
-  const int first = grid_.first_interior();
-  std::vector<double> rows(static_cast<std::size_t>(n), 0.0);
-  const bool threaded = worth_threads(grid_);
-#pragma omp parallel for schedule(static) if (threaded)
-  for (int j = first; j < n - 1; ++j) {
-    double row = 0.0;
-    for (int i = first; i < n - 1; ++i) {
-      const double scaled = r(i, j) / diagonal_at(i, j);
-      row += grid_.multiplicity(i) * scaled * scaled;
-    }
-    rows[j] = grid_.multiplicity(j) * row;
-  }
-  double sum = 0.0;
-  for (int j = first; j < n - 1; ++j) sum += rows[j];
+  // Over the full grid's interior (full_interior_sum).
+  const double sum = full_interior_sum(grid_, [&](int i, int j) {
+    const double scaled = r(i, j) / diagonal_at(i, j);
+    return scaled * scaled;
+  });
   const double count = grid_.full_interior();
   return std::sqrt(sum / (count * count));
 }
 
 double ReynoldsOperator::force(const Field& P) const {
   // The trapezoidal rule over the full grid (P = 0 on its boundary).
-  const int n = grid_.n;
-  double sum = 0.0;
-  for (int j = 0; j < n; ++j) {
-    double row = 0.0;
-    for (int i = 0; i < n; ++i) row += grid_.multiplicity(i) * P(i, j);
-    sum += grid_.multiplicity(j) * row;
-  }
   const double h = grid_.h();
-  return sum * h * h;
+  return full_interior_sum(grid_, [&](int i, int j) { return P(i, j); }) * h * h;
 }
 
 }  // namespace ehlsim::reynolds
