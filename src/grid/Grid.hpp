@@ -1,8 +1,11 @@
 #pragma once
 // Uniform square grids and the fields that live on them.
 //
-// A full grid covers [-half_width, half_width]^2 with n points per side
-// (boundary points included), so the mesh size is h = 2 half_width / (n - 1).
+// A full grid covers the square of side 2 half_width centred on (x_center,
+// y_center) with n points per side (boundary points included), so the mesh
+// size is h = 2 half_width / (n - 1).  The impact's square is centred on the
+// contact; the rolling contact's extends further upstream (X < 0) than
+// downstream.
 //
 // A mirrored grid covers the quadrant [0, half_width]^2 of a problem that is
 // even in X and in Y: n points per side, point 0 on the symmetry axis,
@@ -23,22 +26,31 @@
 
 namespace ehlsim {
 
+/// The centre of a full grid's square.
+struct GridCenter {
+  double x = 0.0;
+  double y = 0.0;
+};
+
 struct Grid2D {
   int n = 0;  ///< points per side, boundary included
-  double half_width =
-      0.0;  ///< the domain is [-half_width, half_width]^2 (mirrored: [0, half_width]^2)
+  /// Half the side of the square (mirrored: the side of the quadrant).
+  double half_width = 0.0;
   bool mirrored = false;  ///< the quadrant of a problem even in X and Y
+  GridCenter center;      ///< (0, 0) on a mirrored grid
 
   Grid2D() = default;
-  Grid2D(int points, double half, bool mirror = false)
-      : n(points), half_width(half), mirrored(mirror) {
+  Grid2D(int points, double half, bool mirror = false, GridCenter centre = {})
+      : n(points), half_width(half), mirrored(mirror), center(centre) {
     if (points < 3) throw std::invalid_argument("Grid2D: need at least 3 points per side");
     if (!(half > 0.0)) throw std::invalid_argument("Grid2D: half_width must be positive");
+    if (mirror && (centre.x != 0.0 || centre.y != 0.0))
+      throw std::invalid_argument("Grid2D: a mirrored grid is centred on the symmetry axes");
   }
 
   [[nodiscard]] double h() const { return (mirrored ? 1.0 : 2.0) * half_width / (n - 1); }
-  [[nodiscard]] double x(int i) const { return (mirrored ? 0.0 : -half_width) + i * h(); }
-  [[nodiscard]] double y(int j) const { return x(j); }
+  [[nodiscard]] double x(int i) const { return (mirrored ? 0.0 : center.x - half_width) + i * h(); }
+  [[nodiscard]] double y(int j) const { return (mirrored ? 0.0 : center.y - half_width) + j * h(); }
   [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(n) * n; }
   [[nodiscard]] std::size_t index(int i, int j) const {
     return static_cast<std::size_t>(j) * n + i;
@@ -58,7 +70,9 @@ struct Grid2D {
   /// True when the grid can be coarsened once more by standard coarsening.
   [[nodiscard]] bool coarsenable() const { return n >= 5 && (n - 1) % 2 == 0; }
   /// The grid with every second point (same domain, twice the mesh size).
-  [[nodiscard]] Grid2D coarser() const { return Grid2D((n - 1) / 2 + 1, half_width, mirrored); }
+  [[nodiscard]] Grid2D coarser() const {
+    return Grid2D((n - 1) / 2 + 1, half_width, mirrored, center);
+  }
 };
 
 /// Grids with fewer points than this run their point loops on one thread:

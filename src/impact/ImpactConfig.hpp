@@ -12,12 +12,10 @@
 #include "analysis/SpikeSettings.hpp"
 #include "reynolds/FaceMean.hpp"
 #include "reynolds/LineRelaxation.hpp"
+#include "reynolds/SolverSettings.hpp"
 #include "rheology/Models.hpp"
 
 namespace ehlsim {
-
-enum class CycleType { V, W };
-enum class DeformationMethod { Fft, Direct };
 
 /// Physical inputs (SI units) and the reference scales derived from them (model.md).
 struct PhysicalCase {
@@ -37,7 +35,14 @@ struct PhysicalCase {
   double t_bar_s = 0.0;
 };
 
-struct ImpactConfig {
+/// The multigrid settings (SolverSettings, shared with the other modes) are
+/// its base: cfg.tolerance, cfg.relaxation, ...  Their impact defaults are
+/// SolverSettings' own: max_cycles 20 per attempt of a time step, because the
+/// hardest steps of the spike phase converge at 0.5-0.7 per cycle from a start
+/// residual ~1e-1 (257^2).
+struct ImpactConfig : SolverSettings {
+  [[nodiscard]] const SolverSettings& solver_settings() const { return *this; }
+
   // [case] Moes parameters and the dimensionless groups they fix.
   double M = 100.0;
   double L = 10.0;
@@ -72,12 +77,8 @@ struct ImpactConfig {
   double waviness_wavelength = 1.0;
   double waviness_angle_deg = 0.0;
 
-  // [solver]
-  CycleType cycle = CycleType::V;
-  double tolerance = 1e-5;  ///< on the pressure-scaled residual of the finest grid
-  /// Cycles per attempt of a time step.  20: the hardest steps of the spike
-  /// phase converge at 0.5-0.7 per cycle from a start residual ~1e-1 (257^2).
-  int max_cycles = 20;
+  // [solver]: the settings every mode has are the base SolverSettings;
+  // these belong to the time stepping.
   /// In the retries of a step: undo a coarse-grid correction that raises its
   /// level's residual norm more than this many times (multigrid/Fas.hpp); 0:
   /// never.  10: a good correction lowers the norm 5-7 times, the largest rise
@@ -86,12 +87,6 @@ struct ImpactConfig {
   /// The first retry of a step scales the under-relaxation by this, each
   /// further retry by half as much again (ImpactProblem.cpp, attempt_damping).
   double retry_damping = 0.8;
-  int pre_sweeps = 3;
-  int post_sweeps = 2;
-  int coarsest_points = 17;  ///< the coarsest multigrid level has this many points per side
-  DeformationMethod deformation = DeformationMethod::Fft;
-  reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
-  FaceMean face_mean = FaceMean::Arithmetic;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
   bool use_symmetry = true;

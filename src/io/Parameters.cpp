@@ -20,6 +20,7 @@
 #include "grid/Grid.hpp"
 #include "impact/RunGuards.hpp"
 #include "impact/Scaling.hpp"
+#include "io/ParameterSet.hpp"
 #include "rheology/Lubricant.hpp"
 
 namespace ehlsim {
@@ -256,22 +257,7 @@ std::vector<ParameterSpec> build_registry() {
                    "pressure-viscosity coefficient (alpha_bar = alpha ph*)"));
   r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
-  // [lubricant]
-  r.push_back(
-      choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
-             "viscosity law: barus exp(alpha_bar P), or roelands (needs eta0, z, ph_star)"));
-  r.push_back(choice("lubricant.density", kIncompressible,
-                     {std::string(kIncompressible), std::string(kDowsonHigginson)},
-                     "density law: incompressible, or dowson-higginson (needs ph_star)"));
-  r.push_back(real("lubricant.eta0", no_default, "physical.eta0", above(0), none, "Pa s",
-                   "roelands: ambient viscosity"));
-  r.push_back(real("lubricant.z", no_default, "from lubricant.alpha", at_least(0), none, "",
-                   "roelands: pressure-viscosity index z (or give lubricant.alpha)"));
-  r.push_back(real(
-      "lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star", at_least(0), none,
-      "1/Pa", "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
-  r.push_back(real("lubricant.ph_star", no_default, "ph* of [physical]", above(0), none, "Pa",
-                   "reference Hertz pressure, needed by roelands and dowson-higginson"));
+  add_lubricant_parameters(r);
   // [body]
   r.push_back(
       boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
@@ -316,13 +302,9 @@ std::vector<ParameterSpec> build_registry() {
                       "write checkpoint.nc (for `ehlsim impact --restart`) every this many "
                       "steps; 0: never"));
   // [solver]
-  r.push_back(choice("solver.cycle", kCycleV, {std::string(kCycleV), std::string(kCycleW)},
-                     "multigrid cycle type"));
-  r.push_back(real("solver.tolerance", kDefaultTolerance, "", above(0), none, "",
-                   "a step has converged when the scaled finest-grid residual is below this"));
-  r.push_back(integer("solver.max_cycles", kDefaultMaxCycles, at_least(1), none, false,
-                      "multigrid cycles per attempt of a time step (a stalled step is retried "
-                      "with more damping)"));
+  add_solver_parameters(r, kDefaults.solver_settings(),
+                        "multigrid cycles per attempt of a time step (a stalled step is retried "
+                        "with more damping)");
   r.push_back(real("solver.correction_safeguard", kDefaults.correction_safeguard, "", at_least(0),
                    none, "",
                    "in the retries of a step, undo a coarse-grid correction that raises the "
@@ -330,37 +312,11 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
                    "the first retry of a step scales both under-relaxation factors by this, "
                    "each further retry (up to 3) by half as much again"));
-  r.push_back(integer("solver.pre_sweeps", kDefaultPreSweeps, at_least(0), none, false,
-                      "relaxation sweeps before the coarse-grid correction"));
-  r.push_back(integer("solver.post_sweeps", kDefaultPostSweeps, at_least(0), none, false,
-                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
-  r.push_back(integer("solver.coarsest_points", kDefaultCoarsestPoints,
-                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
-                      "points per side of the coarsest multigrid level (<= grid.points)"));
-  r.push_back(choice("solver.deformation", kFft, {std::string(kFft), std::string(kDirect)},
-                     "deformation integrals: fft (zero-padded FFT convolution) or direct"));
-  const reynolds::RelaxationSettings& relax = kDefaults.relaxation;
-  r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), none, "",
-                   "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
-                   "times the elastic-squeeze coefficient, else by distributive Jacobi (on "
-                   "meshes finer than 3/256: this times (3/256) / h)"));
-  r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0), at_most(1),
-                   "", "under-relaxation of the Gauss-Seidel line changes"));
-  r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
-                   "under-relaxation of the distributive Jacobi line changes"));
-  r.push_back(choice("solver.line_directions",
-                     relax.alternate_directions ? kLinesAlternating : kLinesX,
-                     {std::string(kLinesAlternating), std::string(kLinesX)},
-                     "relaxation lines: along X and Y in turn (alternating), or along X only"));
   r.push_back(choice("solver.symmetry", kSymmetryAuto,
                      {std::string(kSymmetryAuto), std::string(kSymmetryOff)},
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
                      "when the case is even in X and Y (no waviness, or waviness along an axis), "
                      "4 times fewer points; off: always the full domain"));
-  r.push_back(choice("solver.face_mean", kArithmetic,
-                     {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
-                     "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
-                     "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
   add_spike_parameters(r);
   return r;
 }
@@ -456,32 +412,40 @@ std::string ParameterSpec::default_description() const {
       *default_value);
 }
 
-const std::vector<SectionSpec>& parameter_sections() {
-  static const std::vector<SectionSpec> sections = {
-      {"case", "Moes parameters of the impact (dimensionless case)"},
-      {"physical", "the case in SI units (ball on a flat), instead of [case]: M, L follow from it"},
-      {"lubricant", "viscosity and density laws"},
-      {"body", "the solids"},
-      {"grid", "the square computational domain"},
-      {"time", "time stepping and initial conditions (units: t_bar, delta*)"},
-      {"surface", "optional surface waviness"},
-      {"output", "what is written to the run directory"},
-      {"solver", "multigrid settings"},
-      {"spike", "the pressure-spike analysis (spike.csv, ehlsim spike; docs/model.md)"},
-  };
-  return sections;
+namespace {
+const ParameterSet& impact_parameters() {
+  static const ParameterSet set{
+      {
+          {"case", "Moes parameters of the impact (dimensionless case)"},
+          {"physical",
+           "the case in SI units (ball on a flat), instead of [case]: M, L follow from it"},
+          {"lubricant", "viscosity and density laws"},
+          {"body", "the solids"},
+          {"grid", "the square computational domain"},
+          {"time", "time stepping and initial conditions (units: t_bar, delta*)"},
+          {"surface", "optional surface waviness"},
+          {"output", "what is written to the run directory"},
+          {"solver", "multigrid settings"},
+          {"spike", "the pressure-spike analysis (spike.csv, ehlsim spike; docs/model.md)"},
+      },
+      build_registry(),
+      "Parameters: in CONFIG.toml write [section] then name = value; on the command line\n"
+      "--set section.name=VALUE (VALUE in TOML syntax, a bare word is a string; applied after\n"
+      "the file, in order). Defaults give the paper's case M = 100, L = 10 on 257^2 points.\n"};
+  return set;
 }
+}  // namespace
 
-const std::vector<ParameterSpec>& parameter_registry() {
-  static const std::vector<ParameterSpec> registry = build_registry();
-  return registry;
-}
+const std::vector<SectionSpec>& parameter_sections() { return impact_parameters().sections; }
 
-const ParameterSpec* find_parameter(std::string_view key) {
-  const auto& registry = parameter_registry();
-  const auto it = std::find_if(registry.begin(), registry.end(),
+const std::vector<ParameterSpec>& parameter_registry() { return impact_parameters().specs; }
+
+const ParameterSpec* find_parameter(std::string_view key) { return impact_parameters().find(key); }
+
+const ParameterSpec* ParameterSet::find(std::string_view key) const {
+  const auto it = std::find_if(specs.begin(), specs.end(),
                                [&](const ParameterSpec& s) { return s.key == key; });
-  return it == registry.end() ? nullptr : &*it;
+  return it == specs.end() ? nullptr : &*it;
 }
 
 // ---------------------------------------------------------------------------
@@ -490,21 +454,21 @@ const ParameterSpec* find_parameter(std::string_view key) {
 
 namespace {
 
-bool is_known_section(std::string_view name) {
-  const auto& sections = parameter_sections();
+bool is_known_section(const ParameterSet& set, std::string_view name) {
+  const auto& sections = set.sections;
   return std::any_of(sections.begin(), sections.end(),
                      [&](const SectionSpec& s) { return s.name == name; });
 }
 
-std::string section_list() {
+std::string section_list(const ParameterSet& set) {
   std::string out;
-  for (const auto& s : parameter_sections()) out += (out.empty() ? "" : ", ") + s.name;
+  for (const auto& s : set.sections) out += (out.empty() ? "" : ", ") + s.name;
   return out;
 }
 
-std::string keys_in_section(std::string_view section) {
+std::string keys_in_section(const ParameterSet& set, std::string_view section) {
   std::string out;
-  for (const auto& s : parameter_registry()) {
+  for (const auto& s : set.specs) {
     if (s.section() == section) out += (out.empty() ? "" : ", ") + std::string(s.name());
   }
   return out;
@@ -541,13 +505,6 @@ std::string node_origin(const toml::node& node) {
 std::string origin_suffix(const std::string& origin) {
   return origin.empty() ? std::string() : " (" + origin + ")";
 }
-
-/// One validated input.
-struct Given {
-  ParameterValue value;
-  std::string text;    ///< as written
-  std::string origin;  ///< "file:line:col" or "--set"
-};
 
 [[noreturn]] void fail_value(const std::string& key, const std::string& text,
                              const std::string& problem, const std::string& origin) {
@@ -730,31 +687,31 @@ void apply_override(toml::table& root, const std::string& assignment) {
   }
 }
 
-using GivenMap = std::map<std::string, Given, std::less<>>;
+using GivenMap = Inputs::GivenMap;
 
 /// Checks the structure (sections, keys) first, then every value.
-GivenMap collect(const toml::table& root) {
+GivenMap collect(const toml::table& root, const ParameterSet& set) {
   for (auto&& [section_key, section_node] : root) {
     const std::string section(section_key.str());
     const auto* table = section_node.as_table();
-    if (!is_known_section(section)) {
+    if (!is_known_section(set, section)) {
       if (table && !table->empty()) {
         const auto first = table->cbegin();
         const std::string key = section + "." + std::string(first->first.str());
         throw ConfigError(
             fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}", key,
-                        section, section_list(), origin_suffix(node_origin(first->second))),
+                        section, section_list(set), origin_suffix(node_origin(first->second))),
             key);
       }
       if (table) {
         throw ConfigError(fmt::format("unknown section '[{}]' (known sections: {}){}", section,
-                                      section_list(), origin_suffix(node_origin(section_node))),
+                                      section_list(set), origin_suffix(node_origin(section_node))),
                           section);
       }
       throw ConfigError(
           fmt::format(
               "unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
-              section, section_list(), origin_suffix(node_origin(section_node))),
+              section, section_list(set), origin_suffix(node_origin(section_node))),
           section);
     }
     if (!table) {
@@ -763,10 +720,11 @@ GivenMap collect(const toml::table& root) {
     }
     for (auto&& [name, node] : *table) {
       const std::string key = section + "." + std::string(name.str());
-      if (!find_parameter(key)) {
-        throw ConfigError(fmt::format("unknown key '{}' (known keys in [{}]: {}){}", key, section,
-                                      keys_in_section(section), origin_suffix(node_origin(node))),
-                          key);
+      if (!set.find(key)) {
+        throw ConfigError(
+            fmt::format("unknown key '{}' (known keys in [{}]: {}){}", key, section,
+                        keys_in_section(set, section), origin_suffix(node_origin(node))),
+            key);
       }
     }
   }
@@ -774,59 +732,193 @@ GivenMap collect(const toml::table& root) {
   for (auto&& [section_key, section_node] : root) {
     for (auto&& [name, node] : *section_node.as_table()) {
       const std::string key = std::string(section_key.str()) + "." + std::string(name.str());
-      given.emplace(key, convert(*find_parameter(key), node));
+      given.emplace(key, convert(*set.find(key), node));
     }
   }
   return given;
 }
 
-/// Typed access to the validated inputs, falling back to the registry defaults.
-class Inputs {
- public:
-  explicit Inputs(GivenMap given) : given_(std::move(given)) {}
+}  // namespace
 
-  [[nodiscard]] const Given* given(std::string_view key) const {
-    const auto it = given_.find(key);
-    return it == given_.end() ? nullptr : &it->second;
-  }
-  [[nodiscard]] bool has(std::string_view key) const { return given(key) != nullptr; }
-  [[nodiscard]] bool any_in_section(std::string_view section) const {
-    return std::any_of(given_.begin(), given_.end(), [&](const auto& entry) {
-      return std::string_view(entry.first).substr(0, entry.first.find('.')) == section;
-    });
-  }
+bool Inputs::any_in_section(std::string_view section) const {
+  return std::any_of(given_.begin(), given_.end(), [&](const auto& entry) {
+    return std::string_view(entry.first).substr(0, entry.first.find('.')) == section;
+  });
+}
 
-  template <typename T>
-  [[nodiscard]] T get(std::string_view key) const {
-    if (const Given* g = given(key)) return std::get<T>(g->value);
-    const ParameterSpec* spec = find_parameter(key);
-    if (!spec || !spec->default_value) {
-      throw std::logic_error("parameter registry: no default for '" + std::string(key) + "'");
+const ParameterValue& Inputs::default_of(std::string_view key) const {
+  const ParameterSpec* spec = set_->find(key);
+  if (!spec || !spec->default_value) {
+    throw std::logic_error("parameter registry: no default for '" + std::string(key) + "'");
+  }
+  return *spec->default_value;
+}
+
+double Inputs::required_real(const std::string& key, const std::string& why) const {
+  if (const Given* g = given(key)) return std::get<double>(g->value);
+  throw ConfigError(fmt::format("{} is required {}", key, why), key);
+}
+
+void Inputs::fail(const std::string& key, const std::string& problem) const {
+  const Given* g = given(key);
+  if (!g) throw ConfigError(fmt::format("{}: {}", key, problem), key);
+  fail_value(key, g->text, problem, g->origin);
+}
+
+Inputs read_inputs(const ParameterSet& set, const std::optional<std::filesystem::path>& file,
+                   const std::vector<std::string>& overrides) {
+  toml::table root = file ? parse_config_file(*file) : toml::table{};
+  for (const auto& assignment : overrides) apply_override(root, assignment);
+  return Inputs(collect(root, set), set);
+}
+
+SolverSettings assemble_solver(const Inputs& in) {
+  SolverSettings c;
+  c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
+  c.tolerance = in.real("solver.tolerance");
+  c.max_cycles = in.integer("solver.max_cycles");
+  c.pre_sweeps = in.integer("solver.pre_sweeps");
+  c.post_sweeps = in.integer("solver.post_sweeps");
+  c.coarsest_points = in.integer("solver.coarsest_points");
+  c.relaxation.switch_ratio = in.real("solver.switch_ratio");
+  c.relaxation.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
+  c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
+  c.relaxation.alternate_directions =
+      in.get<std::string>("solver.line_directions") == kLinesAlternating;
+  c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
+  c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
+                                                                       : DeformationMethod::Fft;
+  const int grid_points = in.integer("grid.points");
+  if (c.coarsest_points > grid_points) {
+    in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", grid_points));
+  }
+  if (c.pre_sweeps + c.post_sweeps < 1) {
+    const std::string key =
+        in.has("solver.post_sweeps") ? "solver.post_sweeps" : "solver.pre_sweeps";
+    in.fail(key,
+            fmt::format("solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are {} and {})",
+                        c.pre_sweeps, c.post_sweeps));
+  }
+  return c;
+}
+
+void add_lubricant_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
+  // [lubricant]
+  r.push_back(
+      choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
+             "viscosity law: barus exp(alpha_bar P), or roelands (needs eta0, z, ph_star)"));
+  r.push_back(choice("lubricant.density", kIncompressible,
+                     {std::string(kIncompressible), std::string(kDowsonHigginson)},
+                     "density law: incompressible, or dowson-higginson (needs ph_star)"));
+  r.push_back(real("lubricant.eta0", no_default, "physical.eta0", above(0), none, "Pa s",
+                   "roelands: ambient viscosity"));
+  r.push_back(real("lubricant.z", no_default, "from lubricant.alpha", at_least(0), none, "",
+                   "roelands: pressure-viscosity index z (or give lubricant.alpha)"));
+  r.push_back(real(
+      "lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star", at_least(0), none,
+      "1/Pa", "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
+  r.push_back(real("lubricant.ph_star", no_default, "ph* of [physical]", above(0), none, "Pa",
+                   "reference Hertz pressure, needed by roelands and dowson-higginson"));
+}
+
+void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& defaults,
+                           const std::string& max_cycles_doc) {
+  const std::optional<Bound> none;
+  r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
+                     {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
+  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), none, "",
+                   "converged when the scaled finest-grid residual is below this"));
+  r.push_back(
+      integer("solver.max_cycles", defaults.max_cycles, at_least(1), none, false, max_cycles_doc));
+  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), none, false,
+                      "relaxation sweeps before the coarse-grid correction"));
+  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), none, false,
+                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
+  r.push_back(integer("solver.coarsest_points", defaults.coarsest_points,
+                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
+                      "points per side of the coarsest multigrid level (<= grid.points)"));
+  r.push_back(choice("solver.deformation", deformation_method_text(defaults.deformation),
+                     {std::string(kFft), std::string(kDirect)},
+                     "deformation integrals: fft (zero-padded FFT convolution) or direct"));
+  const reynolds::RelaxationSettings& relax = defaults.relaxation;
+  r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), none, "",
+                   "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
+                   "times the elastic coefficient of its transport term, else by distributive "
+                   "Jacobi (impact, on meshes finer than 3/256: this times (3/256) / h)"));
+  r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0), at_most(1),
+                   "", "under-relaxation of the Gauss-Seidel line changes"));
+  r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
+                   "under-relaxation of the distributive Jacobi line changes"));
+  r.push_back(choice("solver.line_directions",
+                     relax.alternate_directions ? kLinesAlternating : kLinesX,
+                     {std::string(kLinesAlternating), std::string(kLinesX)},
+                     "relaxation lines: along X and Y in turn (alternating), or along X only"));
+  r.push_back(choice("solver.face_mean", face_mean_text(defaults.face_mean),
+                     {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
+                     "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
+                     "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
+}
+
+Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
+                             const std::optional<PhysicalLubricant>& physical) {
+  Lubricant lub;
+  lub.alpha_bar = alpha_bar;
+  lub.viscosity = in.get<std::string>("lubricant.viscosity") == kRoelands ? ViscosityModel::Roelands
+                                                                          : ViscosityModel::Barus;
+  lub.density = in.get<std::string>("lubricant.density") == kDowsonHigginson
+                    ? DensityModel::DowsonHigginson
+                    : DensityModel::Incompressible;
+  const bool roelands = lub.viscosity == ViscosityModel::Roelands;
+  const bool dowson_higginson = lub.density == DensityModel::DowsonHigginson;
+  const std::string user =
+      roelands ? "lubricant.viscosity = \"roelands\"" : "lubricant.density = \"dowson-higginson\"";
+
+  // Inputs the [physical] section already fixes.
+  if (physical) {
+    for (const char* key : {"lubricant.ph_star", "lubricant.eta0", "lubricant.alpha"}) {
+      if (in.has(key)) in.fail(key, "is given by the [physical] section; remove one of them");
     }
-    return std::get<T>(*spec->default_value);
   }
-  [[nodiscard]] double real(std::string_view key) const { return get<double>(key); }
-  [[nodiscard]] int integer(std::string_view key) const { return get<int>(key); }
-  [[nodiscard]] std::optional<double> optional_real(std::string_view key) const {
-    if (const Given* g = given(key)) return std::get<double>(g->value);
-    return std::nullopt;
+  lub.ph_star_Pa =
+      physical ? physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
+  lub.eta0_Pa_s = physical ? physical->eta0_Pa_s : in.optional_real("lubricant.eta0").value_or(0.0);
+  lub.roelands_z = 0.0;
+  if ((roelands || dowson_higginson) && !(lub.ph_star_Pa > 0.0)) {
+    throw ConfigError(fmt::format("lubricant.ph_star is required by {} (reference Hertz pressure "
+                                  "[Pa]; or give a [physical] section)",
+                                  user),
+                      "lubricant.ph_star");
   }
-  /// A value that is required in this context.
-  [[nodiscard]] double required_real(const std::string& key, const std::string& why) const {
-    if (const Given* g = given(key)) return std::get<double>(g->value);
-    throw ConfigError(fmt::format("{} is required {}", key, why), key);
+  if (!roelands) return lub;
+  if (!(lub.eta0_Pa_s > 0.0)) {
+    throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
+                                  "give a [physical] section)",
+                                  user),
+                      "lubricant.eta0");
   }
+  if (!(std::log(lub.eta0_Pa_s) + kRoelandsLnEtaInf > 0.0)) {
+    const std::string key = physical ? "physical.eta0" : "lubricant.eta0";
+    in.fail(key, fmt::format("must be > {:g} Pa s for the Roelands law (ln(eta0) + {} > 0)",
+                             std::exp(-kRoelandsLnEtaInf), kRoelandsLnEtaInf));
+  }
+  if (in.has("lubricant.z") && in.has("lubricant.alpha")) {
+    in.fail("lubricant.alpha", "give either lubricant.z or lubricant.alpha, not both");
+  }
+  if (const auto z = in.optional_real("lubricant.z")) {
+    lub.roelands_z = *z;
+  } else {
+    // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
+    const double alpha =
+        physical ? physical->alpha_per_Pa
+                 : in.optional_real("lubricant.alpha").value_or(alpha_bar / lub.ph_star_Pa);
+    lub.roelands_z = Lubricant::roelands_z_from_alpha(alpha, lub.eta0_Pa_s);
+  }
+  return lub;
+}
 
-  /// "key = value: problem (origin)" for a given key.
-  [[noreturn]] void fail(const std::string& key, const std::string& problem) const {
-    const Given* g = given(key);
-    if (!g) throw ConfigError(fmt::format("{}: {}", key, problem), key);
-    fail_value(key, g->text, problem, g->origin);
-  }
-
- private:
-  GivenMap given_;
-};
+namespace {
 
 void assemble_case(const Inputs& in, ImpactConfig& c) {
   static constexpr std::string_view case_keys[] = {"case.M", "case.L", "case.lambda_bar",
@@ -905,58 +997,16 @@ void assemble_case(const Inputs& in, ImpactConfig& c) {
   c.physical.reset();
 }
 
-void assemble_lubricant(const Inputs& in, ImpactConfig& c) {
-  c.viscosity = in.get<std::string>("lubricant.viscosity") == kRoelands ? ViscosityModel::Roelands
-                                                                        : ViscosityModel::Barus;
-  c.density = in.get<std::string>("lubricant.density") == kDowsonHigginson
-                  ? DensityModel::DowsonHigginson
-                  : DensityModel::Incompressible;
-  const bool roelands = c.viscosity == ViscosityModel::Roelands;
-  const bool dowson_higginson = c.density == DensityModel::DowsonHigginson;
-  const std::string user =
-      roelands ? "lubricant.viscosity = \"roelands\"" : "lubricant.density = \"dowson-higginson\"";
-
-  // Inputs the [physical] section already fixes.
-  if (c.physical) {
-    for (const char* key : {"lubricant.ph_star", "lubricant.eta0", "lubricant.alpha"}) {
-      if (in.has(key)) in.fail(key, "is given by the [physical] section; remove one of them");
-    }
-  }
-  c.ph_star_Pa =
-      c.physical ? c.physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
-  c.eta0_Pa_s =
-      c.physical ? c.physical->eta0_Pa_s : in.optional_real("lubricant.eta0").value_or(0.0);
-  c.roelands_z = 0.0;
-  if ((roelands || dowson_higginson) && !(c.ph_star_Pa > 0.0)) {
-    throw ConfigError(fmt::format("lubricant.ph_star is required by {} (reference Hertz pressure "
-                                  "[Pa]; or give a [physical] section)",
-                                  user),
-                      "lubricant.ph_star");
-  }
-  if (!roelands) return;
-  if (!(c.eta0_Pa_s > 0.0)) {
-    throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
-                                  "give a [physical] section)",
-                                  user),
-                      "lubricant.eta0");
-  }
-  if (!(std::log(c.eta0_Pa_s) + kRoelandsLnEtaInf > 0.0)) {
-    const std::string key = c.physical ? "physical.eta0" : "lubricant.eta0";
-    in.fail(key, fmt::format("must be > {:g} Pa s for the Roelands law (ln(eta0) + {} > 0)",
-                             std::exp(-kRoelandsLnEtaInf), kRoelandsLnEtaInf));
-  }
-  if (in.has("lubricant.z") && in.has("lubricant.alpha")) {
-    in.fail("lubricant.alpha", "give either lubricant.z or lubricant.alpha, not both");
-  }
-  if (const auto z = in.optional_real("lubricant.z")) {
-    c.roelands_z = *z;
-  } else {
-    // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
-    const double alpha =
-        c.physical ? c.physical->alpha_per_Pa
-                   : in.optional_real("lubricant.alpha").value_or(c.alpha_bar / c.ph_star_Pa);
-    c.roelands_z = Lubricant::roelands_z_from_alpha(alpha, c.eta0_Pa_s);
-  }
+void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
+  std::optional<PhysicalLubricant> physical;
+  if (c.physical)
+    physical = {c.physical->ph_star_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
+  const Lubricant lub = assemble_lubricant(in, c.alpha_bar, physical);
+  c.viscosity = lub.viscosity;
+  c.density = lub.density;
+  c.ph_star_Pa = lub.ph_star_Pa;
+  c.eta0_Pa_s = lub.eta0_Pa_s;
+  c.roelands_z = lub.roelands_z;
 }
 
 /// The undeformed gap at T = 0, Delta0 + (X^2 + Y^2) / 2 + waviness, must be
@@ -998,35 +1048,11 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.snapshot_every = in.integer("output.snapshot_every");
   c.snapshot_times = in.get<std::vector<double>>("output.snapshot_times");
   c.checkpoint_every = in.integer("output.checkpoint_every");
-  c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
-  c.tolerance = in.real("solver.tolerance");
-  c.max_cycles = in.integer("solver.max_cycles");
+  static_cast<SolverSettings&>(c) = assemble_solver(in);
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
-  c.pre_sweeps = in.integer("solver.pre_sweeps");
-  c.post_sweeps = in.integer("solver.post_sweeps");
-  c.coarsest_points = in.integer("solver.coarsest_points");
-  c.relaxation.switch_ratio = in.real("solver.switch_ratio");
-  c.relaxation.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
-  c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
-  c.relaxation.alternate_directions =
-      in.get<std::string>("solver.line_directions") == kLinesAlternating;
-  c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
-  c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
-                                                                       : DeformationMethod::Fft;
-
   check_undeformed_gap(in, c);
-  if (c.coarsest_points > c.grid_points) {
-    in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", c.grid_points));
-  }
-  if (c.pre_sweeps + c.post_sweeps < 1) {
-    const std::string key =
-        in.has("solver.post_sweeps") ? "solver.post_sweeps" : "solver.pre_sweeps";
-    in.fail(key,
-            fmt::format("solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are {} and {})",
-                        c.pre_sweeps, c.post_sweeps));
-  }
 }
 
 void assemble_spike(const Inputs& in, ImpactConfig& c) {
@@ -1051,12 +1077,10 @@ void assemble_spike(const Inputs& in, ImpactConfig& c) {
 
 ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
                          const std::vector<std::string>& overrides) {
-  toml::table root = file ? parse_config_file(*file) : toml::table{};
-  for (const auto& assignment : overrides) apply_override(root, assignment);
-  const Inputs inputs(collect(root));
+  const Inputs inputs = read_inputs(impact_parameters(), file, overrides);
   ImpactConfig config;
   assemble_case(inputs, config);
-  assemble_lubricant(inputs, config);
+  assemble_impact_lubricant(inputs, config);
   assemble_rest(inputs, config);
   assemble_spike(inputs, config);
   return config;
@@ -1066,11 +1090,10 @@ ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
 // Help and echo
 // ---------------------------------------------------------------------------
 
-std::string describe_parameters() {
-  std::string out =
-      "Parameters: in CONFIG.toml write [section] then name = value; on the command line\n"
-      "--set section.name=VALUE (VALUE in TOML syntax, a bare word is a string; applied after\n"
-      "the file, in order). Defaults give the paper's case M = 100, L = 10 on 257^2 points.\n";
+std::string describe_parameters() { return describe_parameters(impact_parameters()); }
+
+std::string describe_parameters(const ParameterSet& set) {
+  std::string out = set.intro;
   const auto type_name = [](const ParameterSpec& s) -> std::string {
     switch (s.type) {
       case ParameterType::Float:
@@ -1086,9 +1109,9 @@ std::string describe_parameters() {
     }
     return {};
   };
-  for (const auto& section : parameter_sections()) {
+  for (const auto& section : set.sections) {
     out += fmt::format("\n[{}]  {}\n", section.name, section.doc);
-    for (const auto& s : parameter_registry()) {
+    for (const auto& s : set.specs) {
       if (s.section() != section.name) continue;
       std::string type = type_name(s);
       if (!s.units.empty()) type += " [" + s.units + "]";

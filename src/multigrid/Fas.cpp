@@ -24,8 +24,6 @@ FasSolver::FasSolver(std::vector<FasLevel*> levels, FasSettings settings)
   }
 }
 
-void FasSolver::cycle() { cycle_on(0); }
-
 void FasSolver::cycle_on(int l) {
   FasLevel& level = *levels_[l];
   if (l == num_levels() - 1) {
@@ -69,15 +67,21 @@ void FasSolver::cycle_on(int l) {
   level.relax(u_[l], f_[l], settings_.post_sweeps);
 }
 
+void FasSolver::restrict_rhs_to_coarse_levels() {
+  for (int l = 0; l + 1 < num_levels(); ++l) restrict_full_weighting(f_[l], f_[l + 1]);
+}
+
+void FasSolver::interpolate_solution(int level) {
+  prolong_cubic(u_[level + 1], u_[level]);
+  levels_[level]->project(u_[level]);
+}
+
 void FasSolver::full_multigrid() {
   const int coarsest = num_levels() - 1;
-  // Right-hand sides of the coarse problems: restricted from the finest.
-  for (int l = 0; l < coarsest; ++l) restrict_full_weighting(f_[l], f_[l + 1]);
+  restrict_rhs_to_coarse_levels();
   levels_[coarsest]->relax(u_[coarsest], f_[coarsest], settings_.coarsest_sweeps);
   for (int l = coarsest - 1; l >= 0; --l) {
-    prolong_cubic(u_[l + 1], u_[l]);
-    levels_[l]->project(u_[l]);
-    // Cycle on the sub-hierarchy starting at level l.
+    interpolate_solution(l);
     for (int c = 0; c < settings_.fmg_cycles; ++c) cycle_on(l);
   }
 }
@@ -94,9 +98,9 @@ double FasLevel::norm(const Field& r) {
   return std::sqrt(sum / (count * count));
 }
 
-double FasSolver::residual_norm() {
-  levels_[0]->residual(u_[0], f_[0], r_[0]);
-  return levels_[0]->norm(r_[0]);
+double FasSolver::residual_norm(int level) {
+  levels_[level]->residual(u_[level], f_[level], r_[level]);
+  return levels_[level]->norm(r_[level]);
 }
 
 }  // namespace ehlsim::multigrid

@@ -57,14 +57,23 @@ class FasSolver {
   Field& solution(int level = 0) { return u_[level]; }
   Field& rhs(int level = 0) { return f_[level]; }
 
-  /// One cycle (V or W) on the finest grid.
-  void cycle();
+  /// One cycle (V or W) on the finest grid, or on the sub-hierarchy whose
+  /// finest grid is `level` (the steps of a full multigrid driven from
+  /// outside, e.g. with a global unknown updated between the cycles).
+  void cycle(int level = 0) { cycle_on(level); }
+  /// Carries the solution of level + 1 up to `level` (cubic interpolation,
+  /// then the constraint): the start of a full multigrid stage.
+  void interpolate_solution(int level);
   /// Full multigrid: solve N(u) = f on the coarsest grid, carry the solution up
   /// with cubic interpolation, and on each finer grid perform fmg_cycles cycles.
   /// The right-hand sides of the coarse levels are restricted from the finest.
   void full_multigrid();
-  /// Residual of the finest grid in the finest level's norm().
-  double residual_norm();
+  /// Residual of the finest grid (or of `level`, with its own right-hand
+  /// side) in that level's norm().
+  double residual_norm(int level = 0);
+  /// The right-hand sides of the coarse levels restricted from the finest:
+  /// what a full multigrid solves on each level before carrying it up.
+  void restrict_rhs_to_coarse_levels();
   /// Coarse-grid corrections undone by the safeguard, on any level, since construction.
   [[nodiscard]] long rejected_corrections() const { return rejected_corrections_; }
   void set_correction_safeguard(double factor) { settings_.correction_safeguard = factor; }

@@ -27,15 +27,29 @@ GridPoint line_point(LineDirection direction, int line, int a) {
 
 LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
     : op_(op), settings_(settings), jacobi_change_(op.grid()) {
-  // Elastic kernels along a line: of a plain change at one point, and of a
-  // distributed one (-1/4 at the four neighbours).
-  for (int d = 0; d <= kHalfBand; ++d) {
-    kernel_plain_[d] = op_.kernel(d, 0);
-    kernel_distributed_[d] =
-        op_.kernel(d, 0) -
-        kDistribution * (op_.kernel(d - 1, 0) + op_.kernel(d + 1, 0) + 2.0 * op_.kernel(d, 1));
+  // Elastic kernels between points `a` meshes apart along a line and `c`
+  // across it: of a plain change at one point, and of a distributed one (-1/4
+  // at the four neighbours).  K is even in both offsets.
+  for (int a = 0; a <= kMaxAlong; ++a) {
+    for (int c = 0; c <= kMaxAcross; ++c) {
+      kernel_plain_[a][c] = op_.kernel(a, c);
+      kernel_distributed_[a][c] =
+          op_.kernel(a, c) - kDistribution * (op_.kernel(a - 1, c) + op_.kernel(a + 1, c) +
+                                              (op_.kernel(a, c - 1) + op_.kernel(a, c + 1)));
+    }
   }
 }
+
+/// The transport part of one row of a line system: the points upstream of
+/// the row's point whose rho H its equation holds (ReynoldsOperator::taps_at).
+struct LineRelaxation::RowTransport {
+  LineDirection direction;
+  /// -weight[t] rho at tap t: times the kernel, the derivative of the row's
+  /// transport term with respect to a pressure change.
+  std::array<double, kTransportTaps> elastic_scale{};
+  /// -weight[t] (d rho / d P) H at tap t, for t >= 1 (t = 0 is in `self`).
+  std::array<double, kTransportTaps> density_scale{};
+};
 
 /// The work arrays of one line (one set per thread): `count` unknowns.
 struct LineRelaxation::LineWork {
@@ -135,10 +149,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   const int first = grid.first_interior();
   const int m = n - 1 - first;
   const double h2 = grid.h() * grid.h();
-  const double squeeze = op_.squeeze_coefficient();
-  const Field& rho = op_.density();
   const bool elastic = op_.elastic();
-  const double k00 = op_.kernel(0, 0);
 
   for (int r = 0; r < m; ++r) {
     const auto [i, j] = line_point(direction, line, r + first);
@@ -151,7 +162,7 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
     lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) &&
-                      flow < settings_.switch_ratio * squeeze * rho(i, j) * k00;
+                      flow < settings_.switch_ratio * op_.elastic_diagonal(i, j);
     lw.rhs[r] = f(i, j) - op_.apply_at(P, i, j, faces);
   }
 
@@ -173,20 +184,37 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
   solve_projected(P, line, direction, lw);
 }
 
-double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown, double elastic_scale,
-                                      double self, const LineWork& lw) const {
+double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown,
+                                      const RowTransport& transport, double self,
+                                      const LineWork& lw) const {
   // d N_r / d (the change of the unknown at `offset` along the line from r).
-  const int d = std::abs(offset);
+  // The transport term: tap t lies t meshes upstream (-X) of the row's point,
+  // along an X line, across a Y line.
+  const bool along_x = transport.direction == LineDirection::X;
+  double value = 0.0;
+  for (int t = 0; t < kTransportTaps; ++t) {
+    if (t > 0 && transport.elastic_scale[t] == 0.0) continue;
+    const double k = along_x ? line_kernel(offset + t, 0, jacobi_unknown)
+                             : line_kernel(offset, t, jacobi_unknown);
+    value += transport.elastic_scale[t] * k;
+  }
+  if (along_x) {
+    // The density of an upstream tap on the line: its own change, or a
+    // quarter of a distributive change next to it.
+    for (int t = 1; t < kTransportTaps; ++t) {
+      if (offset == -t) value += transport.density_scale[t];
+      if (jacobi_unknown && std::abs(offset + t) == 1)
+        value -= kDistribution * transport.density_scale[t];
+    }
+  }
   if (!jacobi_unknown) {
     // Change e_c.
-    double value = elastic_scale * kernel_plain_[d];
     if (offset == 0) value += self;
     if (offset == -1) value += lw.cw[r];
     if (offset == 1) value += lw.ce[r];
     return value;
   }
   // Change e_c - (e_{c-1} + e_{c+1} + e_{c, j-1} + e_{c, j+1}) / 4.
-  double value = elastic_scale * kernel_distributed_[d];
   if (offset == 0)
     value += self - kDistribution * (lw.cs[r] + lw.cn[r]) - kDistribution * (lw.cw[r] + lw.ce[r]);
   if (offset == -1) value += lw.cw[r] - kDistribution * self;
@@ -207,23 +235,27 @@ void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction, L
   const int n = grid.n;
   const int first = grid.first_interior();
   const int m = n - 1 - first;
-  const double squeeze = op_.squeeze_coefficient();
   const Field& rho = op_.density();
   const Field& drho = op_.density_derivative();
   const Field& H = op_.film();
   BandMatrix& A = lw.A;
   A.clear();
+  RowTransport transport{direction};
   for (int r = 0; r < m; ++r) {
     const int p = r + first;
     const auto [i, j] = line_point(direction, line, p);
-    const double elastic_scale = -squeeze * rho(i, j);
+    const TransportTaps taps = op_.taps_at(i);
+    for (int t = 0; t < kTransportTaps; ++t) {
+      transport.elastic_scale[t] = -taps.weight[t] * rho(i - t, j);
+      transport.density_scale[t] = t > 0 ? -taps.weight[t] * drho(i - t, j) * H(i - t, j) : 0.0;
+    }
     const double self =
-        -(lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r]) - squeeze * drho(i, j) * H(i, j);
+        -(lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r]) - taps.weight[0] * drho(i, j) * H(i, j);
     for (int c = p - kHalfBand; c <= p + kHalfBand; ++c) {
       const int q = grid.mirrored ? std::abs(c) : c;
       if (q < first || q > n - 2) continue;
       A(r, q - first) +=
-          jacobian_entry(r, c - p, lw.is_jacobi[q - first] != 0, elastic_scale, self, lw);
+          jacobian_entry(r, c - p, lw.is_jacobi[q - first] != 0, transport, self, lw);
     }
   }
 }

@@ -16,7 +16,9 @@
 //    change delta is applied at the point and -delta/4 at its four neighbours,
 //    which turns the first-kind integral equation into a local, diagonally
 //    dominant one; these changes are collected and applied after the sweep.
-// The line system holds the exact derivatives of the flow terms and the
+// The line system is the derivative of the operator's own stencil
+// (ReynoldsOperator::faces_at and taps_at): the exact derivatives of the flow
+// terms, of the density at the point, and of the transport terms through the
 // elastic kernel truncated to the band (|i - k| <= 2), for both kinds.
 #include <array>
 #include <vector>
@@ -76,9 +78,18 @@ class LineRelaxation {
                   LineWork& work) const;
   /// The banded Jacobian of the line's residuals with respect to the changes.
   void assemble_line_jacobian(int line, LineDirection direction, LineWork& work) const;
+  struct RowTransport;
   /// One entry of it: row r, the unknown `offset` points along the line.
-  [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown, double elastic_scale,
-                                      double self, const LineWork& work) const;
+  [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown,
+                                      const RowTransport& transport, double self,
+                                      const LineWork& work) const;
+  /// The elastic kernel of a plain change (K) or of a distributive one (the
+  /// change less a quarter at each of the four neighbours) between points
+  /// `along` and `across` meshes apart.
+  [[nodiscard]] double line_kernel(int along, int across, bool distributed) const {
+    const auto& table = distributed ? kernel_distributed_ : kernel_plain_;
+    return table[std::abs(along)][std::abs(across)];
+  }
   /// Solves the line system with the points held at P = 0 by the projection.
   void solve_projected(const Field& P, int line, LineDirection direction, LineWork& work) const;
 
@@ -89,7 +100,12 @@ class LineRelaxation {
 
   ReynoldsOperator& op_;
   RelaxationSettings settings_;
-  std::array<double, kHalfBand + 1> kernel_plain_{}, kernel_distributed_{};
+  /// Kernel offsets the line systems reach: along the line the band plus the
+  /// transport taps, across it the taps.
+  static constexpr int kMaxAlong = kHalfBand + kTransportTaps - 1;
+  static constexpr int kMaxAcross = kTransportTaps - 1;
+  using KernelTable = std::array<std::array<double, kMaxAcross + 1>, kMaxAlong + 1>;
+  KernelTable kernel_plain_{}, kernel_distributed_{};
   Field jacobi_change_;
   SweepStats stats_;
   double damping_ = 1.0;

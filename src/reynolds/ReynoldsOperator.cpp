@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 namespace ehlsim::reynolds {
@@ -25,11 +26,14 @@ ReynoldsOperator::ReynoldsOperator(const Grid2D& grid, const Lubricant& lubrican
       drho_(grid),
       xi_(grid),
       rho_over_eta_lambda_(grid) {
+  if (grid_.mirrored && settings_.wedge != 0.0)
+    throw std::invalid_argument("ReynoldsOperator: the wedge term is not even in X");
   if (settings_.elastic) deformation_ = make_deformation(grid_, settings_.use_fft);
   for (int j = 0; j < grid_.n; ++j) {
     for (int i = 0; i < grid_.n; ++i) {
       const double x = grid_.x(i), y = grid_.y(j);
-      shape_(i, j) = 0.5 * (x * x + y * y) + settings_.waviness.height(x, y);
+      shape_(i, j) =
+          0.5 * (x * x + settings_.curvature_ratio * y * y) + settings_.waviness.height(x, y);
     }
   }
 }
@@ -97,7 +101,15 @@ double ReynoldsOperator::apply_at(const Field& P, int i, int j, const Faces& fac
   const double flow = (faces.east * (P(i + 1, j) - p) - faces.west * (p - P(i - 1, j)) +
                        faces.north * (P(i, j + 1) - p) - faces.south * (p - P(i, j - 1))) /
                       (h * h);
-  return flow - (b0_ / dT_) * rho_(i, j) * H_(i, j);
+  return flow - transport_at(i, j, taps_at(i));
+}
+
+double ReynoldsOperator::elastic_diagonal(int i, int j) const {
+  const TransportTaps taps = taps_at(i);
+  double sum = taps.weight[0] * rho_(i, j) * kernel(0, 0);
+  for (int t = 1; t < kTransportTaps; ++t)
+    if (taps.weight[t] != 0.0) sum += taps.weight[t] * rho_(i - t, j) * kernel(t, 0);
+  return sum;
 }
 
 void ReynoldsOperator::apply(const Field& P, Field& N) {
@@ -115,7 +127,11 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
   const Faces faces = faces_at(i, j);
   const double flow =
       (faces.west + faces.east + faces.south + faces.north) / (grid_.h() * grid_.h());
-  return flow + (b0_ / dT_) * (rho_(i, j) * kernel(0, 0) + drho_(i, j) * H_(i, j));
+  const TransportTaps taps = taps_at(i);
+  double transport = taps.weight[0] * (rho_(i, j) * kernel(0, 0) + drho_(i, j) * H_(i, j));
+  for (int t = 1; t < kTransportTaps; ++t)
+    if (taps.weight[t] != 0.0) transport += taps.weight[t] * rho_(i - t, j) * kernel(t, 0);
+  return flow + transport;
 }
 
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {

@@ -1,18 +1,25 @@
 #pragma once
-// The discrete transient Reynolds operator of one time step on one grid
-// (model.md), second order in space:
+// The discrete Reynolds operator on one grid (model.md), second order in
+// space, for the impact and the rolling contact alike:
 //
 //   N(P)_ij = (1/h^2) [ xi_e (P_e - P) - xi_w (P - P_w) + xi_n (P_n - P) - xi_s (P - P_s) ]
-//             - (b0 / dT) rho_ij H_ij
+//             - sum_t c_t (rho H)_{i-t,j}
 //
-// with xi = rho H^3 / (eta lambda_bar) at the points and arithmetic means on the
-// faces, H = Delta + X^2/2 + Y^2/2 + waviness + W(P) (W: elastic deformation),
-// and b0 the BDF coefficient of the new time level.  The known terms of the
-// earlier time levels belong to the right-hand side f, so that one time step is
-// the nonlinear problem N(P) = f, P >= 0, P = 0 on the boundary.
+// with xi = rho H^3 / (eta lambda_bar) at the points and means on the faces,
+// H = Delta + X^2/2 + D Y^2/2 + waviness + W(P) (W: elastic deformation, D the
+// curvature ratio of an elliptic contact, 1 for a ball), and the transport
+// taps c_t (TransportTaps) of the squeeze term b0/dT d(rho H) (the impact; b0
+// the BDF coefficient of the new time level) and of the wedge term
+// d(rho H)/dX (the rolling contact, upwind).  The known terms of earlier time
+// levels belong to the right-hand side f, so that one time step, or the
+// steady state, is the nonlinear problem N(P) = f, P >= 0, P = 0 on the
+// boundary.
 //
-// The operator knows nothing of the solver; it exposes its frozen coefficients
-// (H, rho, xi) for the relaxation.
+// This stencil is the one discretisation: the residual evaluates it
+// (apply_at) and the line relaxation differentiates it (faces_at, taps_at).
+// The operator knows nothing of the solver; it exposes its frozen
+// coefficients (H, rho, xi) for the relaxation.
+#include <array>
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -68,6 +75,12 @@ struct Waviness {
 
 struct OperatorSettings {
   double lambda_bar = 1.0;
+  /// Coefficient of the wedge term -d(rho H)/dX: 1 for a contact whose
+  /// surfaces carry the lubricant along +X (the rolling contact), 0 for the
+  /// impact.
+  double wedge = 0.0;
+  /// D = Rx / Ry: the undeformed gap is X^2/2 + D Y^2/2 (1: a ball).
+  double curvature_ratio = 1.0;
   bool elastic = true;  ///< false: rigid bodies, W = 0
   bool use_fft = true;  ///< FFT convolution (fast) or direct summation (reference)
   Waviness waviness;
@@ -80,6 +93,15 @@ inline bool is_pressurized(const Field& P, int i, int j) {
   return P(i, j) > 0.0 && P(i - 1, j) > 0.0 && P(i + 1, j) > 0.0 && P(i, j - 1) > 0.0 &&
          P(i, j + 1) > 0.0;
 }
+
+/// Points upstream (-X) whose rho H enter the transport term of a point.
+inline constexpr int kTransportTaps = 3;
+
+/// The transport part of the stencil at one point: N includes
+/// -weight[t] (rho H)(i - t, j) for t = 0, 1, 2.
+struct TransportTaps {
+  std::array<double, kTransportTaps> weight{};
+};
 
 class ReynoldsOperator {
  public:
@@ -101,6 +123,27 @@ class ReynoldsOperator {
     b0_ = b0;
   }
   [[nodiscard]] double squeeze_coefficient() const { return b0_ / dT_; }
+  /// The transport taps of a point in column i: the squeeze term at the point
+  /// itself, the wedge term by the second-order upwind difference
+  /// (3 u_i - 4 u_{i-1} + u_{i-2}) / (2h), first order next to the inflow
+  /// boundary, where u_{i-2} is outside the grid.
+  [[nodiscard]] TransportTaps taps_at(int i) const {
+    TransportTaps taps{{b0_ / dT_, 0.0, 0.0}};
+    if (settings_.wedge == 0.0) return taps;
+    const double c = settings_.wedge / grid_.h();
+    if (i >= 2) {
+      taps.weight[0] += 1.5 * c;
+      taps.weight[1] = -2.0 * c;
+      taps.weight[2] = 0.5 * c;
+    } else {
+      taps.weight[0] += c;
+      taps.weight[1] = -c;
+    }
+    return taps;
+  }
+  /// d(transport term) / d(deformation) at the point itself:
+  /// sum_t weight[t] rho_{i-t,j} K(t, 0), the elastic part of the diagonal.
+  [[nodiscard]] double elastic_diagonal(int i, int j) const;
   void set_delta(double Delta) { delta_ = Delta; }
   [[nodiscard]] double delta() const { return delta_; }
 
@@ -125,6 +168,13 @@ class ReynoldsOperator {
   }
   /// The same, with the point's faces_at() already at hand.
   [[nodiscard]] double apply_at(const Field& P, int i, int j, const Faces& faces) const;
+  /// The transport term sum_t weight[t] (rho H)_{i-t,j} of a point.
+  [[nodiscard]] double transport_at(int i, int j, const TransportTaps& taps) const {
+    double sum = taps.weight[0] * rho_(i, j) * H_(i, j);
+    for (int t = 1; t < kTransportTaps; ++t)
+      if (taps.weight[t] != 0.0) sum += taps.weight[t] * rho_(i - t, j) * H_(i - t, j);
+    return sum;
+  }
 
   // Coefficients of the last update_coefficients().
   [[nodiscard]] const Field& film() const { return H_; }

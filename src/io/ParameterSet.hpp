@@ -1,0 +1,107 @@
+#pragma once
+// The machinery every mode's configuration shares: a set of declared keys
+// (ParameterSpec, io/Parameters.hpp), read from an optional TOML file and
+// `--set KEY=VALUE` overrides, validated against their declarations, and
+// handed to the mode as typed Inputs.  `ehlsim impact` and `ehlsim rolling`
+// each declare their set once (io/Parameters.cpp, io/RollingParameters.cpp);
+// the declarations that both modes have (the lubricant, the solids, the
+// multigrid settings) are added by the shared add_*_parameters functions.
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "io/Parameters.hpp"
+#include "reynolds/SolverSettings.hpp"
+#include "rheology/Lubricant.hpp"
+
+namespace ehlsim {
+
+/// The keys of one mode: its sections in --help order and their keys.
+struct ParameterSet {
+  std::vector<SectionSpec> sections;
+  std::vector<ParameterSpec> specs;
+  /// The first lines of the --help text of the parameters.
+  std::string intro;
+  /// The spec of a dotted key, nullptr if there is none.
+  [[nodiscard]] const ParameterSpec* find(std::string_view key) const;
+};
+
+/// One validated input.
+struct Given {
+  ParameterValue value;
+  std::string text;    ///< as written
+  std::string origin;  ///< "file:line:col" or "--set"
+};
+
+/// Typed access to the validated inputs, falling back to the set's defaults.
+class Inputs {
+ public:
+  using GivenMap = std::map<std::string, Given, std::less<>>;
+  Inputs(GivenMap given, const ParameterSet& set) : given_(std::move(given)), set_(&set) {}
+
+  [[nodiscard]] const Given* given(std::string_view key) const {
+    const auto it = given_.find(key);
+    return it == given_.end() ? nullptr : &it->second;
+  }
+  [[nodiscard]] bool has(std::string_view key) const { return given(key) != nullptr; }
+  [[nodiscard]] bool any_in_section(std::string_view section) const;
+
+  template <typename T>
+  [[nodiscard]] T get(std::string_view key) const {
+    if (const Given* g = given(key)) return std::get<T>(g->value);
+    return std::get<T>(default_of(key));
+  }
+  [[nodiscard]] double real(std::string_view key) const { return get<double>(key); }
+  [[nodiscard]] int integer(std::string_view key) const { return get<int>(key); }
+  [[nodiscard]] std::optional<double> optional_real(std::string_view key) const {
+    if (const Given* g = given(key)) return std::get<double>(g->value);
+    return std::nullopt;
+  }
+  /// A value that is required in this context.
+  [[nodiscard]] double required_real(const std::string& key, const std::string& why) const;
+  /// Throws ConfigError "key = value: problem (origin)" for a given key.
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+
+ private:
+  [[nodiscard]] const ParameterValue& default_of(std::string_view key) const;
+  GivenMap given_;
+  const ParameterSet* set_;
+};
+
+/// Reads the optional TOML file, applies the overrides in order and validates
+/// every key and value against `set`.  Throws ConfigError.
+[[nodiscard]] Inputs read_inputs(const ParameterSet& set,
+                                 const std::optional<std::filesystem::path>& file,
+                                 const std::vector<std::string>& overrides);
+
+/// The set as text for --help: every key with its default, range and doc.
+[[nodiscard]] std::string describe_parameters(const ParameterSet& set);
+
+// Declarations both modes share, each with the defaults of its mode.
+
+/// [lubricant]: the viscosity and density laws and their inputs.
+void add_lubricant_parameters(std::vector<ParameterSpec>& specs);
+/// The lubricant of validated [lubricant] inputs.  `alpha_bar` comes from the
+/// case; `physical` holds ph*, eta0 and alpha [SI] when the case was given in
+/// physical units (then the [lubricant] keys that repeat them are refused).
+struct PhysicalLubricant {
+  double ph_star_Pa = 0.0;
+  double eta0_Pa_s = 0.0;
+  double alpha_per_Pa = 0.0;
+};
+[[nodiscard]] Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
+                                           const std::optional<PhysicalLubricant>& physical);
+
+/// [solver]: the multigrid settings both modes have (SolverSettings), with
+/// the defaults of the mode.  `max_cycles_doc` says what a cycle limit means
+/// in the mode.
+void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettings& defaults,
+                           const std::string& max_cycles_doc);
+/// The SolverSettings of validated [solver] inputs (checks coarsest_points
+/// against grid.points and pre_sweeps + post_sweeps >= 1).
+[[nodiscard]] SolverSettings assemble_solver(const Inputs& in);
+
+}  // namespace ehlsim
