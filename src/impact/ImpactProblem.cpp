@@ -12,7 +12,7 @@
 #include <string>
 
 #include "dynamics/Newmark.hpp"
-#include "impact/ReynoldsFasLevel.hpp"
+#include "reynolds/ReynoldsFasLevel.hpp"
 #include "impact/RunGuards.hpp"
 #include "multigrid/Fas.hpp"
 

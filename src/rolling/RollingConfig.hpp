@@ -1,0 +1,62 @@
+#pragma once
+// Everything that defines one steady rolling point-contact run (model.md,
+// "Steady rolling point contact"), in the Hertz units of the contact: X, Y in
+// a = (3 w Rx / (2 E'))^(1/3), P in ph = 3 w / (2 pi a^2), H = h Rx / a^2.
+// For an elliptic contact (D = Rx / Ry != 1) a and ph are those of a ball of
+// radius Rx under the same load: the deformation stays (2/pi^2) Int P / r, the
+// force balance Int P = 2 pi / 3, and only the undeformed gap changes, to
+// X^2/2 + D Y^2/2 (docs/model.md).
+//
+// Values only: defaults, ranges and docs live once, in io/RollingParameters.
+#include <optional>
+
+#include "reynolds/SolverSettings.hpp"
+#include "rheology/Lubricant.hpp"
+
+namespace ehlsim {
+
+/// Physical inputs (SI) of a rolling contact and what follows from them.
+struct RollingPhysical {
+  double Rx_m = 0.0, Ry_m = 0.0;      ///< reduced radii of curvature along and across the rolling
+  double load_N = 0.0;                ///< w
+  double u1_m_s = 0.0, u2_m_s = 0.0;  ///< surface speeds
+  double reduced_modulus_Pa = 0.0;    ///< E'
+  double eta0_Pa_s = 0.0;
+  double alpha_per_Pa = 0.0;
+  // derived
+  double a_m = 0.0;         ///< Hertz radius of the reference ball contact
+  double ph_Pa = 0.0;       ///< its maximum pressure
+  double U = 0.0, W = 0.0;  ///< Moes speed and load groups
+};
+
+struct RollingConfig : SolverSettings {
+  // [case]
+  double M = 100.0;
+  double L = 10.0;
+  double D = 1.0;           ///< Rx / Ry
+  double lambda_bar = 0.0;  ///< from M
+  double alpha_bar = 0.0;   ///< from M and L
+  std::optional<RollingPhysical> physical;
+  // [lubricant]
+  Lubricant lubricant;
+  // [body]
+  bool elastic = true;
+  // [grid]
+  int grid_points = 257;
+  double x_min = -4.5, x_max = 1.5, y_min = -3.0, y_max = 3.0;
+  // [solver] (the rest is SolverSettings)
+  /// Fraction of the Newton change of H0 applied after each cycle.
+  double h0_relaxation = 0.5;
+  /// Cycles on each coarse level of the full multigrid start.
+  int fmg_cycles = 4;
+  RollingConfig() {
+    tolerance = 1e-6;
+    max_cycles = 40;
+    pre_sweeps = 2;
+    post_sweeps = 1;
+    coarsest_points = 17;
+    relaxation.switch_ratio = 0.3;
+  }
+};
+
+}  // namespace ehlsim

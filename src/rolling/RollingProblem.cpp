@@ -1,0 +1,212 @@
+#include "rolling/RollingProblem.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "multigrid/Fas.hpp"
+#include "reynolds/ReynoldsFasLevel.hpp"
+#include "rolling/FilmFormula.hpp"
+
+namespace ehlsim {
+
+namespace {
+/// d(force) / dH0 of the dry Hertz contact in these units: the load grows as
+/// the approach^(3/2), with approach 1 at load 2 pi / 3, so -dF/dH0 = pi.
+constexpr double kLoadStiffness = std::numbers::pi;
+
+/// Bilinear interpolation of f at (x, y) inside the grid.
+double value_at(const Field& f, const Grid2D& grid, double x, double y) {
+  const double h = grid.h();
+  const double s = (x - grid.x(0)) / h, t = (y - grid.y(0)) / h;
+  const int i = std::clamp(static_cast<int>(std::floor(s)), 0, grid.n - 2);
+  const int j = std::clamp(static_cast<int>(std::floor(t)), 0, grid.n - 2);
+  const double a = s - i, b = t - j;
+  return (1 - a) * (1 - b) * f(i, j) + a * (1 - b) * f(i + 1, j) + (1 - a) * b * f(i, j + 1) +
+         a * b * f(i + 1, j + 1);
+}
+
+Lubricant lubricant_of(const RollingConfig& c) {
+  Lubricant lub = c.lubricant;
+  lub.alpha_bar = c.alpha_bar;
+  return lub;
+}
+}  // namespace
+
+Grid2D RollingProblem::grid_of(const RollingConfig& c) {
+  const double half = 0.5 * (c.x_max - c.x_min);
+  return Grid2D(c.grid_points, half, false, {0.5 * (c.x_min + c.x_max), 0.5 * (c.y_min + c.y_max)});
+}
+
+struct RollingProblem::Impl {
+  explicit Impl(const RollingConfig& config);
+
+  void setup_hierarchy();
+  /// The Hertz pressure on the coarsest grid and H0 from the film formula.
+  void start_from_hertz();
+  /// Cycles on `level` (the finest of the sub-hierarchy) with H0 updated
+  /// after each; true when the finest grid reached the tolerance.
+  bool converge_on(int level, int cycles, const CycleMonitor& monitor);
+  void update_h0(int level);
+  void set_h0(double H0);
+  [[nodiscard]] double work_units() const;
+  [[nodiscard]] RollingResult result() const;
+
+  RollingConfig cfg;
+  Grid2D grid;
+  std::vector<std::unique_ptr<ReynoldsFasLevel>> levels;
+  std::unique_ptr<multigrid::FasSolver> solver;
+  double h0 = 0.0;
+  std::vector<RollingCycle> history;
+};
+
+RollingProblem::Impl::Impl(const RollingConfig& config) : cfg(config), grid(grid_of(config)) {
+  setup_hierarchy();
+}
+
+void RollingProblem::Impl::setup_hierarchy() {
+  reynolds::OperatorSettings op;
+  op.lambda_bar = cfg.lambda_bar;
+  op.elastic = cfg.elastic;
+  op.use_fft = cfg.deformation == DeformationMethod::Fft;
+  op.face_mean = cfg.face_mean;
+  op.wedge = 1.0;
+  op.curvature_ratio = cfg.D;
+  const Lubricant lubricant = lubricant_of(cfg);
+  Grid2D g = grid;
+  std::vector<multigrid::FasLevel*> raw;
+  while (true) {
+    levels.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, cfg.relaxation));
+    levels.back()->op().set_time_step(1.0, 0.0);  // steady: no squeeze term
+    raw.push_back(levels.back().get());
+    if (g.n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
+    g = g.coarser();
+  }
+  multigrid::FasSettings fas;
+  fas.pre_sweeps = cfg.pre_sweeps;
+  fas.post_sweeps = cfg.post_sweeps;
+  fas.cycle_index = cfg.cycle == CycleType::W ? 2 : 1;
+  solver = std::make_unique<multigrid::FasSolver>(std::move(raw), fas);
+}
+
+void RollingProblem::Impl::set_h0(double H0) {
+  h0 = H0;
+  for (auto& level : levels) level->op().set_delta(H0);
+}
+
+void RollingProblem::Impl::start_from_hertz() {
+  const int coarsest = solver->num_levels() - 1;
+  ReynoldsFasLevel& level = *levels[coarsest];
+  const Grid2D& g = level.grid();
+  Field& P = solver->solution(coarsest);
+  for (int j = 1; j < g.n - 1; ++j) {
+    for (int i = 1; i < g.n - 1; ++i) {
+      const double x = g.x(i), y = g.y(j);
+      P(i, j) = std::sqrt(std::max(0.0, 1.0 - x * x - cfg.D * y * y));
+    }
+  }
+  // H0 puts the central film of the Hertz pressure at the formula's value.
+  set_h0(0.0);
+  level.op().update_coefficients(P);
+  const double hc_formula = moes_to_hertz_film(nvm_central_film(cfg.M, cfg.L, cfg.D), cfg.M);
+  set_h0(hc_formula - value_at(level.op().film(), g, 0.0, 0.0));
+}
+
+void RollingProblem::Impl::update_h0(int level) {
+  const double force = levels[level]->op().force(solver->solution(level));
+  set_h0(h0 + cfg.h0_relaxation * (force - kRollingLoad) / kLoadStiffness);
+}
+
+bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor& monitor) {
+  reynolds::ReynoldsOperator& op = levels[level]->op();
+  for (int c = 1; c <= cycles; ++c) {
+    solver->cycle(level);
+    update_h0(level);
+    RollingCycle record;
+    record.points = op.grid().n;
+    record.cycle = c;
+    record.residual = solver->residual_norm(level);
+    record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
+    record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
+    record.H0 = h0;
+    record.work = work_units();
+    history.push_back(record);
+    if (monitor) monitor(record);
+    if (!std::isfinite(record.residual) || !std::isfinite(h0))
+      throw RollingFailure(
+          fmt::format("the multigrid iteration diverged on the {}^2 grid at "
+                      "cycle {} (residual {:.3e}, H0 {:.4g})",
+                      record.points, c, record.residual, h0));
+    if (level == 0 && record.residual < cfg.tolerance &&
+        std::abs(record.force_error) < cfg.tolerance)
+      return true;
+  }
+  return false;
+}
+
+double RollingProblem::Impl::work_units() const {
+  const double finest = static_cast<double>(levels.front()->grid().size());
+  double work = 0.0;
+  for (const auto& level : levels)
+    work += static_cast<double>(level->op().deformation_evaluations()) *
+            static_cast<double>(level->grid().size()) / finest;
+  return work;
+}
+
+RollingResult RollingProblem::Impl::result() const {
+  const reynolds::ReynoldsOperator& op = levels.front()->op();
+  RollingResult r;
+  r.grid = grid;
+  r.P = solver->solution(0);
+  r.H = op.film();
+  r.Hc = value_at(r.H, grid, 0.0, 0.0);
+  r.Hm = std::numeric_limits<double>::infinity();
+  for (int j = 1; j < grid.n - 1; ++j) {
+    for (int i = 1; i < grid.n - 1; ++i) {
+      if (r.H(i, j) < r.Hm) {
+        r.Hm = r.H(i, j);
+        r.X_Hm = grid.x(i);
+        r.Y_Hm = grid.y(j);
+      }
+      if (r.P(i, j) > r.P_max) {
+        r.P_max = r.P(i, j);
+        r.X_P_max = grid.x(i);
+        r.Y_P_max = grid.y(j);
+      }
+    }
+  }
+  r.H0 = h0;
+  r.history = history;
+  r.residual = history.back().residual;
+  r.force_error = history.back().force_error;
+  r.cycles = history.back().cycle;
+  r.work = work_units();
+  return r;
+}
+
+RollingProblem::RollingProblem(const RollingConfig& config)
+    : impl_(std::make_unique<Impl>(config)) {}
+RollingProblem::~RollingProblem() = default;
+
+RollingResult RollingProblem::run(const CycleMonitor& monitor) {
+  Impl& s = *impl_;
+  s.start_from_hertz();
+  const int coarsest = s.solver->num_levels() - 1;
+  bool converged = false;
+  for (int level = coarsest; level >= 0; --level) {
+    if (level < coarsest) s.solver->interpolate_solution(level);
+    converged = s.converge_on(level, level == 0 ? s.cfg.max_cycles : s.cfg.fmg_cycles, monitor);
+  }
+  if (!converged) {
+    const RollingCycle& last = s.history.back();
+    throw RollingFailure(fmt::format(
+        "not converged in solver.max_cycles = {} cycles on the {}^2 grid: residual {:.3e}, "
+        "force error {:.3e} (solver.tolerance = {:g})",
+        s.cfg.max_cycles, last.points, last.residual, last.force_error, s.cfg.tolerance));
+  }
+  return s.result();
+}
+
+}  // namespace ehlsim

@@ -1,0 +1,70 @@
+#pragma once
+// The steady rolling point contact (model.md, "Steady rolling point
+// contact") on the impact's solver: the same Reynolds operator with the wedge
+// term in place of the squeeze term, the same line relaxation and FAS
+// multigrid.  The rigid-body separation H0 is the global unknown that the
+// force balance Int P dX dY = 2 pi / 3 fixes; it is updated after every
+// cycle.  The solution starts from the Hertz pressure on the coarsest grid and
+// is carried up by full multigrid.
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "grid/Grid.hpp"
+#include "rolling/RollingConfig.hpp"
+
+namespace ehlsim {
+
+/// The state after one cycle on one level of the full multigrid.
+struct RollingCycle {
+  int points = 0;            ///< points per side of the level
+  int cycle = 0;             ///< cycle on that level, from 1
+  double residual = 0.0;     ///< pressure-scaled residual norm
+  double force_error = 0.0;  ///< (h^2 sum P - 2 pi / 3) / (2 pi / 3)
+  double Hc = 0.0;           ///< central film H(0, 0)
+  double H0 = 0.0;
+  double work = 0.0;  ///< deformation evaluations so far, in finest-grid units
+};
+
+struct RollingResult {
+  Grid2D grid;
+  Field P, H;
+  double Hc = 0.0;                                   ///< H at X = Y = 0
+  double Hm = 0.0, X_Hm = 0.0, Y_Hm = 0.0;           ///< minimum film and its position
+  double P_max = 0.0, X_P_max = 0.0, Y_P_max = 0.0;  ///< maximum pressure and its position
+  double H0 = 0.0;
+  double residual = 0.0, force_error = 0.0;
+  int cycles = 0;     ///< on the finest grid
+  double work = 0.0;  ///< deformation evaluations, in finest-grid units
+  std::vector<RollingCycle> history;
+};
+
+/// A run that did not converge: what() names the level, the cycles and the residual.
+class RollingFailure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class RollingProblem {
+ public:
+  explicit RollingProblem(const RollingConfig& config);
+  ~RollingProblem();
+  RollingProblem(const RollingProblem&) = delete;
+  RollingProblem& operator=(const RollingProblem&) = delete;
+
+  using CycleMonitor = std::function<void(const RollingCycle&)>;
+  /// Solves to solver.tolerance; throws RollingFailure when it cannot.
+  [[nodiscard]] RollingResult run(const CycleMonitor& monitor = {});
+  /// The grid of the case's domain and grid.points.
+  [[nodiscard]] static Grid2D grid_of(const RollingConfig& config);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The force balance of the Hertz units: Int P dX dY = 2 pi / 3.
+inline constexpr double kRollingLoad = 2.0 * 3.14159265358979323846 / 3.0;
+
+}  // namespace ehlsim
