@@ -4,6 +4,7 @@
 //   ehlsim impact --help        (lists every parameter with default and range)
 //   ehlsim spike RUN_DIR [--out DIR] [--set spike.KEY=VALUE]... [--quiet]
 //   ehlsim study [--grid N] [--out DIR] [--jobs J] [--set KEY=VALUE]... [--no-plots]
+//   ehlsim rolling [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--quiet]  (apps/Rolling.cpp)
 //   ehlsim --version
 //
 // Exit codes: 0 success; 1 the run failed (solver, file system); 2 bad input
@@ -27,6 +28,7 @@
 #include <string_view>
 #include <vector>
 
+#include "Rolling.hpp"
 #include "Study.hpp"
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
@@ -275,6 +277,8 @@ int run(int argc, char** argv) {
   CLI::App* spike_cmd = add_spike_command(app, spike);
   StudyOptions study;
   CLI::App* study_cmd = add_study_command(app, study);
+  RollingOptions rolling;
+  CLI::App* rolling_cmd = add_rolling_command(app, rolling);
 
   try {
     app.parse(argc, argv);
@@ -288,6 +292,7 @@ int run(int argc, char** argv) {
   if (impact_cmd->parsed()) return run_impact(impact);
   if (spike_cmd->parsed()) return run_spike(spike);
   if (study_cmd->parsed()) return run_study(study);
+  if (rolling_cmd->parsed()) return run_rolling(rolling);
   print_error("no command given (try ehlsim --help)");
   return kExitBadInput;
 }

@@ -8,6 +8,7 @@
 // multigrid settings) are added by the shared add_*_parameters functions.
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -80,6 +81,24 @@ class Inputs {
 /// The set as text for --help: every key with its default, range and doc.
 [[nodiscard]] std::string describe_parameters(const ParameterSet& set);
 
+// Declaring keys: one call per key (no default: std::nullopt, with the text
+// --help shows instead).
+[[nodiscard]] Bound above(double v);
+[[nodiscard]] Bound at_least(double v);
+[[nodiscard]] Bound at_most(double v);
+[[nodiscard]] Bound below(double v);
+[[nodiscard]] ParameterSpec real(std::string key, std::optional<double> def,
+                                 std::string default_text, std::optional<Bound> lower,
+                                 std::optional<Bound> upper, std::string units, std::string doc);
+[[nodiscard]] ParameterSpec integer(std::string key, int def, std::optional<Bound> lower,
+                                    std::optional<Bound> upper, bool power_of_two_plus_one,
+                                    std::string doc);
+[[nodiscard]] ParameterSpec boolean(std::string key, bool def, std::string doc);
+[[nodiscard]] ParameterSpec choice(std::string key, std::string_view def,
+                                   std::vector<std::string> choices, std::string doc);
+[[nodiscard]] ParameterSpec real_array(std::string key, std::optional<Bound> lower,
+                                       std::string doc);
+
 // Declarations both modes share, each with the defaults of its mode.
 
 /// [lubricant]: the viscosity and density laws and their inputs.
@@ -103,5 +122,7 @@ void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettin
 /// The SolverSettings of validated [solver] inputs (checks coarsest_points
 /// against grid.points and pre_sweeps + post_sweeps >= 1).
 [[nodiscard]] SolverSettings assemble_solver(const Inputs& in);
+/// The echo of the SolverSettings for run.json.
+[[nodiscard]] nlohmann::json solver_settings_json(const SolverSettings& settings);
 
 }  // namespace ehlsim

@@ -63,8 +63,6 @@ std::string_view deformation_method_text(DeformationMethod method) {
 // The registry
 // ---------------------------------------------------------------------------
 
-namespace {
-
 Bound above(double v) { return {v, false}; }
 Bound at_least(double v) { return {v, true}; }
 Bound at_most(double v) { return {v, true}; }
@@ -127,6 +125,8 @@ ParameterSpec real_array(std::string key, std::optional<Bound> lower, std::strin
   s.doc = std::move(doc);
   return s;
 }
+
+namespace {
 
 constexpr double kPoissonMax = 0.5;
 // The defaults are those of ImpactConfig: declared once, there.
@@ -1136,6 +1136,21 @@ std::string_view spike_filter_text(SpikeFilter filter) {
   throw std::logic_error("spike_filter_text: unknown filter");
 }
 
+nlohmann::json solver_settings_json(const SolverSettings& c) {
+  return {{"cycle", cycle_type_text(c.cycle)},
+          {"tolerance", c.tolerance},
+          {"max_cycles", c.max_cycles},
+          {"pre_sweeps", c.pre_sweeps},
+          {"post_sweeps", c.post_sweeps},
+          {"coarsest_points", c.coarsest_points},
+          {"deformation", deformation_method_text(c.deformation)},
+          {"switch_ratio", c.relaxation.switch_ratio},
+          {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
+          {"omega_jacobi", c.relaxation.omega_jacobi},
+          {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
+          {"face_mean", face_mean_text(c.face_mean)}};
+}
+
 nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   using nlohmann::json;
   json j;
@@ -1175,22 +1190,10 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["output"] = {{"snapshot_every", c.snapshot_every},
                  {"snapshot_times", c.snapshot_times},
                  {"checkpoint_every", c.checkpoint_every}};
-  j["solver"] = {
-      {"cycle", cycle_type_text(c.cycle)},
-      {"tolerance", c.tolerance},
-      {"max_cycles", c.max_cycles},
-      {"correction_safeguard", c.correction_safeguard},
-      {"retry_damping", c.retry_damping},
-      {"pre_sweeps", c.pre_sweeps},
-      {"post_sweeps", c.post_sweeps},
-      {"coarsest_points", c.coarsest_points},
-      {"deformation", deformation_method_text(c.deformation)},
-      {"switch_ratio", c.relaxation.switch_ratio},
-      {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
-      {"omega_jacobi", c.relaxation.omega_jacobi},
-      {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
-      {"symmetry", c.use_symmetry ? kSymmetryAuto : kSymmetryOff},
-      {"face_mean", face_mean_text(c.face_mean)}};
+  j["solver"] = solver_settings_json(c);
+  j["solver"]["correction_safeguard"] = c.correction_safeguard;
+  j["solver"]["retry_damping"] = c.retry_damping;
+  j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
                 {"max_window_meshes", c.spike.max_window_meshes},

@@ -1,0 +1,88 @@
+#include "Rolling.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <optional>
+
+#include "Study.hpp"
+#include "io/Parameters.hpp"
+#include "io/RollingOutput.hpp"
+#include "io/RollingParameters.hpp"
+#include "rolling/FilmFormula.hpp"
+#include "rolling/RollingProblem.hpp"
+
+using namespace ehlsim;
+
+CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options) {
+  CLI::App* cmd = app.add_subcommand(
+      "rolling", "Solve one steady rolling (or rolling and sliding) EHL point contact.");
+  cmd->add_option("config", options.config_file,
+                  "TOML file with the case (default: a ball, M = 100, L = 10)");
+  cmd->add_option("-o,--out", options.out_dir,
+                  "run directory for fields.nc, the profiles and run.json (created if missing)")
+      ->capture_default_str();
+  cmd->add_option("--set", options.overrides,
+                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  cmd->footer("\n" + describe_parameters(rolling_parameters()));
+  return cmd;
+}
+
+namespace {
+void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
+  fmt::print("ehlsim {} rolling -> {}\n", EHLSIM_VERSION, out_dir);
+  fmt::print(
+      "  case       M = {:.6g}, L = {:.6g}, D = {:.6g} (lambda_bar = {:.6g}, alpha_bar = "
+      "{:.6g})\n",
+      c.M, c.L, c.D, c.lambda_bar, c.alpha_bar);
+  fmt::print("  lubricant  {}, {}\n", viscosity_model_text(c.lubricant.viscosity),
+             density_model_text(c.lubricant.density));
+  fmt::print("  grid       {}^2 on X in [{:g}, {:g}], Y in [{:g}, {:g}]\n", c.grid_points, c.x_min,
+             c.x_max, c.y_min, c.y_max);
+  std::fflush(stdout);
+}
+}  // namespace
+
+int run_rolling(const RollingOptions& options) {
+  RollingConfig config;
+  try {
+    std::optional<std::filesystem::path> file;
+    if (!options.config_file.empty()) file = options.config_file;
+    config = load_rolling_config(file, options.overrides);
+  } catch (const ConfigError& e) {
+    cli::print_error(e.what());
+    return cli::kExitBadInput;
+  }
+  if (!options.quiet) print_rolling_case(config, options.out_dir);
+  const auto start = std::chrono::steady_clock::now();
+  RollingResult result;
+  try {
+    RollingProblem problem(config);
+    result = problem.run([&](const RollingCycle& c) {
+      if (options.quiet) return;
+      fmt::print("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}\n", c.points,
+                 c.cycle, c.residual, c.force_error, c.Hc);
+    });
+  } catch (const RollingFailure& e) {
+    cli::print_error(e.what());
+    return cli::kExitFailure;
+  }
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  nlohmann::json invocation = {{"config", options.config_file}, {"overrides", options.overrides}};
+  write_rolling_run(options.out_dir, config, result, invocation, wall);
+  if (!options.quiet) {
+    fmt::print(
+        "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "
+        "P_max = {:.5g}; {} cycles, {:.2f} s; output in {}\n",
+        result.Hc, hertz_to_moes_film(result.Hc, config.M),
+        nvm_central_film(config.M, config.L, config.D), result.Hm, result.X_Hm, result.P_max,
+        result.cycles, wall, options.out_dir);
+  }
+  return cli::kExitOk;
+}

@@ -1,0 +1,31 @@
+#pragma once
+// The run directory of `ehlsim rolling`:
+//
+//   fields.nc          P and H of the converged solution (one snapshot, the
+//                      same layout as the impact's fields.nc)
+//   profile_x.csv      X, P, H along Y = 0
+//   profile_y.csv      Y, P, H along X = X(Hm), the column of the minimum film
+//   convergence.csv    residual, force error, Hc and H0 after every cycle
+//   run.json           parameters, results (Hc, Hm, Hc_moes, ...), wall time
+//
+// Each file is written as "<name>.part" and renamed when complete; run.json
+// last, so its presence marks a complete run.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "rolling/RollingConfig.hpp"
+#include "rolling/RollingProblem.hpp"
+
+namespace ehlsim {
+
+/// The "results" object of run.json.
+[[nodiscard]] nlohmann::json rolling_results_json(const RollingConfig& config,
+                                                  const RollingResult& result);
+
+/// Writes the whole run directory (created if missing).  Throws
+/// std::runtime_error / std::filesystem::filesystem_error.
+void write_rolling_run(const std::filesystem::path& directory, const RollingConfig& config,
+                       const RollingResult& result, const nlohmann::json& invocation,
+                       double wall_seconds);
+
+}  // namespace ehlsim

@@ -1,0 +1,189 @@
+#include "io/RollingParameters.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "impact/Scaling.hpp"
+#include "io/Parameters.hpp"
+
+namespace ehlsim {
+
+namespace {
+
+const RollingConfig kDefaults{};
+
+std::vector<ParameterSpec> build_rolling_registry() {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
+  std::vector<ParameterSpec> r;
+  // [case]
+  r.push_back(real("case.M", kDefaults.M, "", above(0), none, "",
+                   "Moes load parameter W U^(-3/4); sets lambda_bar = (128 pi^3 / (3 M^4))^(1/3)"));
+  r.push_back(
+      real("case.L", kDefaults.L, "", at_least(0), none, "",
+           "Moes lubricant parameter alpha E' U^(1/4); alpha_bar = (L / pi) (3 M / 2)^(1/3)"));
+  r.push_back(real("case.D", kDefaults.D, "", above(0), none, "",
+                   "ellipticity of the gap Rx / Ry (1: a ball; Rx along the rolling)"));
+  // [physical]
+  r.push_back(real("physical.Rx", no_default, "none", above(0), none, "m",
+                   "reduced radius of curvature along the rolling direction"));
+  r.push_back(real("physical.Ry", no_default, "physical.Rx", above(0), none, "m",
+                   "reduced radius of curvature across it"));
+  r.push_back(real("physical.load", no_default, "none", above(0), none, "N", "normal load w"));
+  r.push_back(
+      real("physical.u1", no_default, "none", at_least(0), none, "m/s", "surface speed of body 1"));
+  r.push_back(real("physical.u2", no_default, "none", at_least(0), none, "m/s",
+                   "surface speed of body 2 (u1 + u2 > 0; sliding does not change the "
+                   "isothermal Newtonian film)"));
+  r.push_back(real("physical.reduced_modulus", no_default, "none", above(0), none, "Pa",
+                   "reduced modulus E'"));
+  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
+                   "ambient viscosity of the lubricant"));
+  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
+                   "pressure-viscosity coefficient"));
+  add_lubricant_parameters(r);
+  r.push_back(
+      boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
+  // [grid]
+  r.push_back(integer("grid.points", kDefaults.grid_points, at_least(kMinGridPoints),
+                      at_most(kMaxGridPoints), true, "points per side of the square grid"));
+  r.push_back(real("grid.x_min", kDefaults.x_min, "", below(0), none, "", "inlet edge (unit: a)"));
+  r.push_back(real("grid.x_max", kDefaults.x_max, "", above(0), none, "", "outlet edge"));
+  r.push_back(real("grid.y_min", kDefaults.y_min, "", below(0), none, "",
+                   "side edge; y_max - y_min = x_max - x_min (square cells on a square grid)"));
+  r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), none, "", "other side edge"));
+  // [solver]
+  add_solver_parameters(r, kDefaults, "cycles on the finest grid before the run fails (exit 1)");
+  r.push_back(real("solver.h0_relaxation", kDefaults.h0_relaxation, "", above(0), at_most(1), "",
+                   "fraction of the Newton change of H0 (force balance) applied after a cycle"));
+  r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), none, false,
+                      "cycles on each coarser grid of the full multigrid start"));
+  return r;
+}
+
+/// M, L, D and the Hertz scales of a case given in SI units (model.md).
+void assemble_physical(const Inputs& in, RollingConfig& c) {
+  const std::string why = "with a [physical] section";
+  RollingPhysical p;
+  p.Rx_m = in.required_real("physical.Rx", why);
+  p.Ry_m = in.optional_real("physical.Ry").value_or(p.Rx_m);
+  p.load_N = in.required_real("physical.load", why);
+  p.u1_m_s = in.required_real("physical.u1", why);
+  p.u2_m_s = in.required_real("physical.u2", why);
+  if (!(p.u1_m_s + p.u2_m_s > 0.0)) in.fail("physical.u2", "u1 + u2 must be > 0 (no entrainment)");
+  p.reduced_modulus_Pa = in.required_real("physical.reduced_modulus", why);
+  p.eta0_Pa_s = in.required_real("physical.eta0", why);
+  p.alpha_per_Pa = in.required_real("physical.alpha", why);
+  const double E = p.reduced_modulus_Pa;
+  p.a_m = std::cbrt(1.5 * p.load_N * p.Rx_m / E);
+  p.ph_Pa = 1.5 * p.load_N / (std::numbers::pi * p.a_m * p.a_m);
+  p.U = p.eta0_Pa_s * (p.u1_m_s + p.u2_m_s) / (E * p.Rx_m);
+  p.W = p.load_N / (E * p.Rx_m * p.Rx_m);
+  c.M = p.W * std::pow(p.U, -0.75);
+  c.L = p.alpha_per_Pa * E * std::pow(p.U, 0.25);
+  c.D = p.Rx_m / p.Ry_m;
+  c.physical = p;
+}
+
+void assemble_rolling_case(const Inputs& in, RollingConfig& c) {
+  if (in.any_in_section("physical")) {
+    for (const char* key : {"case.M", "case.L", "case.D"})
+      if (in.has(key)) in.fail(key, "cannot be combined with a [physical] section");
+    assemble_physical(in, c);
+  } else {
+    c.M = in.real("case.M");
+    c.L = in.real("case.L");
+    c.D = in.real("case.D");
+  }
+  c.lambda_bar = moes_lambda_bar(c.M);
+  c.alpha_bar = moes_alpha_bar(c.M, c.L);
+  std::optional<PhysicalLubricant> physical;
+  if (c.physical) physical = {c.physical->ph_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
+  c.lubricant = assemble_lubricant(in, c.alpha_bar, physical);
+}
+
+void assemble_rolling_grid(const Inputs& in, RollingConfig& c) {
+  c.elastic = in.get<bool>("body.elastic");
+  c.grid_points = in.integer("grid.points");
+  c.x_min = in.real("grid.x_min");
+  c.x_max = in.real("grid.x_max");
+  c.y_min = in.real("grid.y_min");
+  c.y_max = in.real("grid.y_max");
+  const double width = c.x_max - c.x_min, height = c.y_max - c.y_min;
+  if (std::abs(width - height) > 1e-12 * width) {
+    const std::string key = in.has("grid.y_max") ? "grid.y_max" : "grid.y_min";
+    in.fail(key, fmt::format("y_max - y_min = {:g} must equal x_max - x_min = {:g} (the grid "
+                             "is square with square cells)",
+                             height, width));
+  }
+}
+
+}  // namespace
+
+const ParameterSet& rolling_parameters() {
+  static const ParameterSet set{
+      {{"case", "Moes parameters of the rolling contact (dimensionless case)"},
+       {"physical", "the case in SI units, instead of [case]: M, L and D follow from it"},
+       {"lubricant", "viscosity and density laws"},
+       {"body", "the solids"},
+       {"grid", "the square computational domain (unit: a, the Hertz radius along X)"},
+       {"solver", "multigrid settings"}},
+      build_rolling_registry(),
+      "Parameters: in CONFIG.toml write [section] then name = value; on the command line\n"
+      "--set section.name=VALUE (VALUE in TOML syntax, a bare word is a string; applied after\n"
+      "the file, in order). Defaults: a ball, M = 100, L = 10, on 257^2 points.\n"};
+  return set;
+}
+
+RollingConfig load_rolling_config(const std::optional<std::filesystem::path>& file,
+                                  const std::vector<std::string>& overrides) {
+  const Inputs in = read_inputs(rolling_parameters(), file, overrides);
+  RollingConfig c;
+  assemble_rolling_case(in, c);
+  assemble_rolling_grid(in, c);
+  static_cast<SolverSettings&>(c) = assemble_solver(in);
+  c.h0_relaxation = in.real("solver.h0_relaxation");
+  c.fmg_cycles = in.integer("solver.fmg_cycles");
+  return c;
+}
+
+nlohmann::json rolling_parameters_json(const RollingConfig& c) {
+  using nlohmann::json;
+  json j;
+  j["case"] = {
+      {"M", c.M}, {"L", c.L}, {"D", c.D}, {"lambda_bar", c.lambda_bar}, {"alpha_bar", c.alpha_bar}};
+  if (c.physical) {
+    const RollingPhysical& p = *c.physical;
+    j["physical"] = {{"Rx", p.Rx_m},        {"Ry", p.Ry_m},
+                     {"load", p.load_N},    {"u1", p.u1_m_s},
+                     {"u2", p.u2_m_s},      {"reduced_modulus", p.reduced_modulus_Pa},
+                     {"eta0", p.eta0_Pa_s}, {"alpha", p.alpha_per_Pa}};
+    const double um = 0.5 * (p.u1_m_s + p.u2_m_s);
+    j["scales"] = {{"a_m", p.a_m},
+                   {"ph_Pa", p.ph_Pa},
+                   {"U", p.U},
+                   {"W", p.W},
+                   {"slide_to_roll", (p.u1_m_s - p.u2_m_s) / um}};
+  }
+  j["lubricant"] = {{"viscosity", viscosity_model_text(c.lubricant.viscosity)},
+                    {"density", density_model_text(c.lubricant.density)}};
+  if (c.lubricant.viscosity == ViscosityModel::Roelands) {
+    j["lubricant"]["eta0"] = c.lubricant.eta0_Pa_s;
+    j["lubricant"]["z"] = c.lubricant.roelands_z;
+  }
+  if (c.lubricant.ph_star_Pa > 0.0) j["lubricant"]["ph_star"] = c.lubricant.ph_star_Pa;
+  j["body"] = {{"elastic", c.elastic}};
+  j["grid"] = {{"points", c.grid_points},
+               {"x_min", c.x_min},
+               {"x_max", c.x_max},
+               {"y_min", c.y_min},
+               {"y_max", c.y_max}};
+  j["solver"] = solver_settings_json(c);
+  j["solver"]["h0_relaxation"] = c.h0_relaxation;
+  j["solver"]["fmg_cycles"] = c.fmg_cycles;
+  return j;
+}
+
+}  // namespace ehlsim
