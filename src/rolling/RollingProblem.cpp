@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numbers>
 
 #include "multigrid/Fas.hpp"
@@ -16,6 +17,18 @@ namespace {
 /// d(force) / dH0 of the dry Hertz contact in these units: the load grows as
 /// the approach^(3/2), with approach 1 at load 2 pi / 3, so -dF/dH0 = pi.
 constexpr double kLoadStiffness = std::numbers::pi;
+/// A stage whose residual grows this far above its first cycle's has diverged.
+constexpr double kDivergenceFactor = 1e3;
+/// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
+constexpr double kDivergedForceError = 1.0;
+/// Under-relaxation factors of the attempts of a stage: a diverged stage
+/// starts again from the interpolated solution with more damping.
+constexpr double kAttemptDamping[] = {1.0, 0.5, 0.25};
+
+/// Thrown by a stage whose iteration diverged (caught by the retries).
+struct StageDiverged : RollingFailure {
+  using RollingFailure::RollingFailure;
+};
 
 /// Bilinear interpolation of f at (x, y) inside the grid.
 double value_at(const Field& f, const Grid2D& grid, double x, double y) {
@@ -49,6 +62,8 @@ struct RollingProblem::Impl {
   /// Cycles on `level` (the finest of the sub-hierarchy) with H0 updated
   /// after each; true when the finest grid reached the tolerance.
   bool converge_on(int level, int cycles, const CycleMonitor& monitor);
+  /// converge_on with retries at more damping when the stage diverges.
+  bool solve_stage(int level, int cycles, const CycleMonitor& monitor);
   void update_h0(int level);
   void set_h0(double H0);
   [[nodiscard]] double work_units() const;
@@ -134,16 +149,34 @@ bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor
     record.work = work_units();
     history.push_back(record);
     if (monitor) monitor(record);
-    if (!std::isfinite(record.residual) || !std::isfinite(h0))
-      throw RollingFailure(
+    const double first = history[history.size() - static_cast<std::size_t>(c)].residual;
+    if (!std::isfinite(record.residual) || !std::isfinite(h0) ||
+        record.residual > kDivergenceFactor * first ||
+        std::abs(record.force_error) >= kDivergedForceError)
+      throw StageDiverged(
           fmt::format("the multigrid iteration diverged on the {}^2 grid at "
-                      "cycle {} (residual {:.3e}, H0 {:.4g})",
-                      record.points, c, record.residual, h0));
+                      "cycle {} (residual {:.3e}, force error {:.3g})",
+                      record.points, c, record.residual, record.force_error));
     if (level == 0 && record.residual < cfg.tolerance &&
         std::abs(record.force_error) < cfg.tolerance)
       return true;
   }
   return false;
+}
+
+bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor& monitor) {
+  const Field start = solver->solution(level);
+  const double start_h0 = h0;
+  for (std::size_t attempt = 0;; ++attempt) {
+    for (auto& l : levels) l->smoother().set_damping(kAttemptDamping[attempt]);
+    try {
+      return converge_on(level, cycles, monitor);
+    } catch (const StageDiverged&) {
+      if (attempt + 1 == std::size(kAttemptDamping)) throw;
+    }
+    solver->solution(level) = start;
+    set_h0(start_h0);
+  }
 }
 
 double RollingProblem::Impl::work_units() const {
@@ -197,7 +230,7 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor) {
   bool converged = false;
   for (int level = coarsest; level >= 0; --level) {
     if (level < coarsest) s.solver->interpolate_solution(level);
-    converged = s.converge_on(level, level == 0 ? s.cfg.max_cycles : s.cfg.fmg_cycles, monitor);
+    converged = s.solve_stage(level, level == 0 ? s.cfg.max_cycles : s.cfg.fmg_cycles, monitor);
   }
   if (!converged) {
     const RollingCycle& last = s.history.back();
