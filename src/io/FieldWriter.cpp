@@ -92,8 +92,9 @@ FieldWriter::FieldWriter(const std::filesystem::path& path, FieldLayout layout,
 // `axis` attribute on purpose: ParaView's NetCDF (CF) reader takes axis X and
 // Y for longitude and latitude and, by default, maps the grid onto a sphere.
 // Without it, it reads a uniform grid on the true X, Y.  time's `axis` T is
-// what makes it (and xarray) see the snapshots as time steps; its unit is "1"
-// because T = t / t_bar is dimensionless ("seconds since ..." would be untrue).
+// what makes that reader see the snapshots as time steps (without it: none);
+// its unit is "1" because T = t / t_bar is dimensionless ("seconds since ..."
+// would be untrue, and xarray would decode it as dates).
 void FieldWriter::define_coordinates() {
   check(nc_def_dim(ncid_, "time", NC_UNLIMITED, &dim_time_), "nc_def_dim(time)");
   check(nc_def_dim(ncid_, "y", layout_.y.size(), &dim_y_), "nc_def_dim(y)");
