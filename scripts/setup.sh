@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
   python3-matplotlib python3-numpy            # figures (Debian's own python3)
   clang-format            # the layout check of .ci/run
+  paraview python3-paraview xvfb xauth  # the headless ParaView test of fields.nc (pvbatch under xvfb-run)
 )
 
 missing=()

@@ -14,6 +14,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -670,21 +671,30 @@ TEST(Writers, NetcdfRoundTrip) {
   ASSERT_EQ(nc_get_var_double(ncid, var, values.data()), NC_NOERR);
   EXPECT_EQ(values[3 + 9 * 4], H(3, 4));
 
-  ASSERT_EQ(nc_inq_varid(ncid, "T", &var), NC_NOERR);
+  EXPECT_EQ(text_attribute(ncid, var, "coordinates"), "time y x");
+
+  ASSERT_EQ(nc_inq_varid(ncid, "time", &var), NC_NOERR);
   std::vector<double> T(2);
   nc_get_var_double(ncid, var, T.data());
   EXPECT_EQ(T, (std::vector<double>{0.25, 0.5}));
   EXPECT_EQ(text_attribute(ncid, var, "axis"), "T");
+  EXPECT_EQ(text_attribute(ncid, var, "units"), "1");
 
-  ASSERT_EQ(nc_inq_varid(ncid, "X", &var), NC_NOERR);
+  ASSERT_EQ(nc_inq_varid(ncid, "x", &var), NC_NOERR);
   std::vector<double> X(9);
   nc_get_var_double(ncid, var, X.data());
   EXPECT_EQ(X.front(), -1.5);
   EXPECT_EQ(X.back(), 1.5);
   EXPECT_EQ(text_attribute(ncid, var, "units"), "1");
-  EXPECT_EQ(text_attribute(ncid, var, "axis"), "X");
+  EXPECT_EQ(text_attribute(ncid, var, "long_name"), "dimensionless coordinate X = x / a*");
+  // No axis on x and y: ParaView's CF reader would take them for longitude
+  // and latitude and draw the grid on a sphere.
+  EXPECT_EQ(text_attribute(ncid, var, "axis"), "<missing>");
+  ASSERT_EQ(nc_inq_varid(ncid, "y", &var), NC_NOERR);
+  EXPECT_EQ(text_attribute(ncid, var, "axis"), "<missing>");
 
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "Conventions"), "CF-1.8");
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "source"), std::string("ehlsim ") + EHLSIM_VERSION);
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "ehlsim_version"), EHLSIM_VERSION);
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "lubricant_viscosity"), "barus");
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "body_elastic"), "true");
@@ -698,6 +708,52 @@ TEST(Writers, NetcdfRoundTrip) {
   EXPECT_EQ(nlohmann::json::parse(text_attribute(ncid, NC_GLOBAL, "ehlsim_parameters")),
             effective_parameters_json(config));
   nc_close(ncid);
+}
+
+std::vector<double> double_variable(int ncid, const char* name, std::size_t size) {
+  int var = -1;
+  std::vector<double> values(size);
+  if (nc_inq_varid(ncid, name, &var) != NC_NOERR) return {};
+  nc_get_var_double(ncid, var, values.data());
+  return values;
+}
+
+// The rolling contact's domain, X in [-4.5, 1.5], Y in [-3, 3]: rectangular,
+// not centred, one snapshot.  x runs along the rows of the stored (time, y, x).
+TEST(Writers, NetcdfRectangularLayout) {
+  TempDir dir;
+  FieldLayout layout{{-4.5, -3.0, -1.5, 0.0, 1.5}, {-3.0, 0.0, 3.0}, "rolling contact"};
+  std::vector<double> P(layout.points());
+  for (std::size_t k = 0; k < P.size(); ++k) P[k] = layout.x[k % 5] + 10.0 * layout.y[k / 5];
+  const std::vector<double> H(layout.points(), 0.5);
+  {
+    FieldWriter w(dir / "fields.nc", layout, nlohmann::json::object());
+    EXPECT_THROW(w.append(0.0, std::span<const double>(P).first(14), H), std::invalid_argument);
+    w.append(0.0, P, H);
+    w.commit();
+  }
+  int ncid = -1;
+  ASSERT_EQ(nc_open((dir / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
+  EXPECT_EQ(double_variable(ncid, "x", 5), layout.x);
+  EXPECT_EQ(double_variable(ncid, "y", 3), layout.y);
+  EXPECT_EQ(double_variable(ncid, "time", 1), std::vector<double>{0.0});
+  const std::vector<double> stored = double_variable(ncid, "P", layout.points());
+  EXPECT_EQ(stored, P);
+  EXPECT_EQ(stored[3 + 5 * 2], 0.0 + 10.0 * 3.0);  // P at X = 0, Y = 3
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "title"), "rolling contact");
+  nc_close(ncid);
+}
+
+TEST(Writers, NetcdfLayoutNeedsTwoPointsPerAxis) {
+  TempDir dir;
+  try {
+    FieldWriter w(dir / "fields.nc", FieldLayout{{0.0, 1.0}, {}, "empty"},
+                  nlohmann::json::object());
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "FieldWriter: a grid of 2 x 0 points");
+  }
+  EXPECT_TRUE(files_in(dir.path()).empty());
 }
 
 TEST(Writers, NetcdfErrorsNameTheFile) {
@@ -932,7 +988,7 @@ TEST(RunOutput, WritesAllFilesOnFinish) {
   int ncid = -1;
   ASSERT_EQ(nc_open((run / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
   int var = -1;
-  ASSERT_EQ(nc_inq_varid(ncid, "T", &var), NC_NOERR);
+  ASSERT_EQ(nc_inq_varid(ncid, "time", &var), NC_NOERR);
   std::vector<double> T(5);
   nc_get_var_double(ncid, var, T.data());
   EXPECT_EQ(T, (std::vector<double>{0.1, 0.30000000000000004, 0.5, 0.6000000000000001, 0.9}));

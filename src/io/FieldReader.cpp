@@ -33,23 +33,23 @@ FieldReader::FieldReader(const std::filesystem::path& path) : path_(path) {
     check(nc_inq_dimlen(ncid_, dim_time, &snapshots), "dimension time");
     check(nc_inq_dimlen(ncid_, dim_x, &n), "dimension x");
     if (n < 3) throw std::runtime_error(fmt::format("'{}': fewer than 3 points", path.string()));
-    int var_X = -1;
-    int var_T = -1;
-    check(nc_inq_varid(ncid_, "X", &var_X), "variable X");
-    check(nc_inq_varid(ncid_, "T", &var_T), "variable T");
+    int var_x = -1;
+    int var_time = -1;
+    check(nc_inq_varid(ncid_, "x", &var_x), "variable x");
+    check(nc_inq_varid(ncid_, "time", &var_time), "variable time");
     check(nc_inq_varid(ncid_, "P", &var_P_), "variable P");
     std::vector<double> X(n);
-    check(nc_get_var_double(ncid_, var_X, X.data()), "variable X");
+    check(nc_get_var_double(ncid_, var_x, X.data()), "variable x");
     const double half_width = -X.front();
     grid_ = Grid2D(static_cast<int>(n), half_width);
     for (std::size_t i = 0; i < n; ++i) {
       if (std::abs(X[i] - grid_.x(static_cast<int>(i))) > kCoordinateTolerance * half_width) {
         throw std::runtime_error(
-            fmt::format("'{}': X is not the uniform symmetric grid ehlsim writes", path.string()));
+            fmt::format("'{}': x is not the uniform symmetric grid ehlsim writes", path.string()));
       }
     }
     times_.resize(snapshots);
-    if (snapshots > 0) check(nc_get_var_double(ncid_, var_T, times_.data()), "variable T");
+    if (snapshots > 0) check(nc_get_var_double(ncid_, var_time, times_.data()), "variable time");
   } catch (...) {
     nc_close(ncid_);
     ncid_ = -1;

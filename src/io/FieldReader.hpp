@@ -1,6 +1,8 @@
 #pragma once
-// Reads fields.nc as FieldWriter writes it: the grid (from the coordinate X),
-// the snapshot times T and the pressure P of each snapshot.
+// Reads the fields.nc of an impact run as FieldWriter writes it: the grid (from
+// the coordinate x), the snapshot times (the coordinate time) and the pressure P
+// of each snapshot.  Files written before the coordinates were named like their
+// dimensions (X, Y, T) are not read: "variable x" is missing.
 #include <cstddef>
 #include <filesystem>
 #include <vector>
@@ -11,7 +13,7 @@ namespace ehlsim {
 
 class FieldReader {
  public:
-  /// Opens the file and reads X, Y and T.  Throws std::runtime_error naming
+  /// Opens the file and reads x and time.  Throws std::runtime_error naming
   /// the file and the NetCDF message, or what is missing or inconsistent.
   explicit FieldReader(const std::filesystem::path& path);
   ~FieldReader();

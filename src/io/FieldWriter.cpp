@@ -6,6 +6,7 @@
 #include <array>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/NetcdfStatus.hpp"
@@ -18,10 +19,13 @@ constexpr int kDeflateLevel = 1;  ///< cheap compression: P is zero outside the 
 constexpr int kShuffle = 1;
 constexpr int kDeflate = 1;
 constexpr const char* kConventions = "CF-1.8";
-constexpr const char* kTitle =
+constexpr const char* kImpactTitle =
     "ehlsim: lubricated ball impact on a flat (pressure and film thickness)";
 constexpr const char* kReferences =
     "A. A. Lubrecht, C. H. Venner, Lubricants 2022, 10, 186 (model and scaling)";
+constexpr std::size_t kMinPointsPerAxis = 2;
+/// The unit of every stored quantity: all are dimensionless (docs/model.md).
+constexpr const char* kDimensionless = "1";
 
 void flatten_into(const nlohmann::json& j, const std::string& prefix, nlohmann::json& out) {
   for (auto it = j.begin(); it != j.end(); ++it) {
@@ -46,87 +50,37 @@ void FieldWriter::check(int status, const char* what) const {
   check_netcdf(status, "write", file_.part_path(), what);
 }
 
+FieldLayout FieldLayout::impact(const Grid2D& grid) {
+  FieldLayout layout;
+  for (int i = 0; i < grid.n; ++i) layout.x.push_back(grid.x(i));
+  for (int j = 0; j < grid.n; ++j) layout.y.push_back(grid.y(j));
+  layout.title = kImpactTitle;
+  return layout;
+}
+
+void FieldWriter::put_text(int var, const char* name, const std::string& value) const {
+  check(nc_put_att_text(ncid_, var, name, value.size(), value.c_str()), name);
+}
+
 FieldWriter::FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
                          const nlohmann::json& parameters)
-    : file_(path), grid_(grid) {
+    : FieldWriter(path, FieldLayout::impact(grid), parameters) {}
+
+FieldWriter::FieldWriter(const std::filesystem::path& path, FieldLayout layout,
+                         const nlohmann::json& parameters)
+    : file_(path), layout_(std::move(layout)) {
+  // A zero-length NetCDF dimension would be a second unlimited one.
+  if (layout_.x.size() < kMinPointsPerAxis || layout_.y.size() < kMinPointsPerAxis) {
+    throw std::invalid_argument(
+        fmt::format("FieldWriter: a grid of {} x {} points", layout_.x.size(), layout_.y.size()));
+  }
   check(nc_create(file_.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &ncid_), "nc_create");
   try {
-    const auto n = static_cast<std::size_t>(grid.n);
-    int dim_time = -1;
-    int dim_y = -1;
-    int dim_x = -1;
-    check(nc_def_dim(ncid_, "time", NC_UNLIMITED, &dim_time), "nc_def_dim(time)");
-    check(nc_def_dim(ncid_, "y", n, &dim_y), "nc_def_dim(y)");
-    check(nc_def_dim(ncid_, "x", n, &dim_x), "nc_def_dim(x)");
-
-    const auto text = [&](int var, const char* name, const std::string& value) {
-      check(nc_put_att_text(ncid_, var, name, value.size(), value.c_str()), name);
-    };
-    int var_X = -1;
-    int var_Y = -1;
-    check(nc_def_var(ncid_, "X", NC_DOUBLE, 1, &dim_x, &var_X), "nc_def_var(X)");
-    text(var_X, "long_name", "dimensionless coordinate X = x / a*");
-    text(var_X, "units", "1");
-    text(var_X, "axis", "X");
-    check(nc_def_var(ncid_, "Y", NC_DOUBLE, 1, &dim_y, &var_Y), "nc_def_var(Y)");
-    text(var_Y, "long_name", "dimensionless coordinate Y = y / a*");
-    text(var_Y, "units", "1");
-    text(var_Y, "axis", "Y");
-    check(nc_def_var(ncid_, "T", NC_DOUBLE, 1, &dim_time, &var_T_), "nc_def_var(T)");
-    text(var_T_, "long_name", "dimensionless time T = t / t_bar");
-    text(var_T_, "units", "1");
-    text(var_T_, "axis", "T");
-
-    const std::array<int, 3> dims = {dim_time, dim_y, dim_x};
-    const std::array<std::size_t, 3> chunk = {1, n, n};
-    const auto field = [&](const char* name, const char* long_name, int* var) {
-      check(nc_def_var(ncid_, name, NC_DOUBLE, 3, dims.data(), var), "nc_def_var");
-      check(nc_def_var_chunking(ncid_, *var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
-      check(nc_def_var_deflate(ncid_, *var, kShuffle, kDeflate, kDeflateLevel),
-            "nc_def_var_deflate");
-      text(*var, "long_name", long_name);
-      text(*var, "units", "1");
-      text(*var, "coordinates", "T Y X");
-    };
-    field("P", "dimensionless pressure P = p / ph*", &var_P_);
-    field("H", "dimensionless film thickness H = h R / a*^2", &var_H_);
-
-    text(NC_GLOBAL, "Conventions", kConventions);
-    text(NC_GLOBAL, "title", kTitle);
-    text(NC_GLOBAL, "source", std::string("ehlsim ") + EHLSIM_VERSION);
-    text(NC_GLOBAL, "references", kReferences);
-    text(NC_GLOBAL, "ehlsim_version", EHLSIM_VERSION);
-    text(NC_GLOBAL, "ehlsim_parameters", parameters.dump());
-    const nlohmann::json flat = flatten_parameters(parameters);
-    for (auto it = flat.begin(); it != flat.end(); ++it) {
-      const std::string& name = it.key();
-      const nlohmann::json& v = *it;
-      if (v.is_boolean()) {
-        text(NC_GLOBAL, name.c_str(), v.get<bool>() ? "true" : "false");
-      } else if (v.is_number_integer()) {
-        const int i = v.get<int>();
-        check(nc_put_att_int(ncid_, NC_GLOBAL, name.c_str(), NC_INT, 1, &i), name.c_str());
-      } else if (v.is_number()) {
-        const double d = v.get<double>();
-        check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, 1, &d), name.c_str());
-      } else if (v.is_string()) {
-        text(NC_GLOBAL, name.c_str(), v.get<std::string>());
-      } else if (v.is_array()) {
-        if (v.empty()) continue;  // e.g. no output.snapshot_times: nothing to record
-        const std::vector<double> values = v.get<std::vector<double>>();
-        check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, values.size(),
-                                values.data()),
-              name.c_str());
-      } else {
-        text(NC_GLOBAL, name.c_str(), "none");  // null: e.g. time.T_end until lift-off
-      }
-    }
+    define_coordinates();
+    define_fields();
+    put_global_attributes(parameters);
     check(nc_enddef(ncid_), "nc_enddef");
-
-    std::vector<double> coordinate(n);
-    for (int i = 0; i < grid.n; ++i) coordinate[static_cast<std::size_t>(i)] = grid.x(i);
-    check(nc_put_var_double(ncid_, var_X, coordinate.data()), "nc_put_var(X)");
-    check(nc_put_var_double(ncid_, var_Y, coordinate.data()), "nc_put_var(Y)");
+    write_coordinates();
   } catch (...) {
     nc_close(ncid_);
     ncid_ = -1;
@@ -134,21 +88,96 @@ FieldWriter::FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
   }
 }
 
+// CF coordinate variables carry the name of their dimension.  x and y have no
+// `axis` attribute on purpose: ParaView's NetCDF (CF) reader takes axis X and
+// Y for longitude and latitude and, by default, maps the grid onto a sphere.
+// Without it, it reads a uniform grid on the true X, Y.  time's `axis` T is
+// what makes that reader see the snapshots as time steps (without it: none);
+// its unit is "1" because T = t / t_bar is dimensionless ("seconds since ..."
+// would be untrue, and xarray would decode it as dates).
+void FieldWriter::define_coordinates() {
+  check(nc_def_dim(ncid_, "time", NC_UNLIMITED, &dim_time_), "nc_def_dim(time)");
+  check(nc_def_dim(ncid_, "y", layout_.y.size(), &dim_y_), "nc_def_dim(y)");
+  check(nc_def_dim(ncid_, "x", layout_.x.size(), &dim_x_), "nc_def_dim(x)");
+  const auto coordinate = [&](const char* name, int dim, const char* long_name, int* var) {
+    check(nc_def_var(ncid_, name, NC_DOUBLE, 1, &dim, var), name);
+    put_text(*var, "long_name", long_name);
+    put_text(*var, "units", kDimensionless);
+  };
+  coordinate("time", dim_time_, "dimensionless time T = t / t_bar", &var_time_);
+  put_text(var_time_, "axis", "T");
+  coordinate("y", dim_y_, "dimensionless coordinate Y = y / a*", &var_y_);
+  coordinate("x", dim_x_, "dimensionless coordinate X = x / a*", &var_x_);
+}
+
+void FieldWriter::define_fields() {
+  const std::array<int, 3> dims = {dim_time_, dim_y_, dim_x_};
+  const std::array<std::size_t, 3> chunk = {1, layout_.y.size(), layout_.x.size()};
+  const auto field = [&](const char* name, const char* long_name, int* var) {
+    check(nc_def_var(ncid_, name, NC_DOUBLE, 3, dims.data(), var), "nc_def_var");
+    check(nc_def_var_chunking(ncid_, *var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
+    check(nc_def_var_deflate(ncid_, *var, kShuffle, kDeflate, kDeflateLevel), "nc_def_var_deflate");
+    put_text(*var, "long_name", long_name);
+    put_text(*var, "units", kDimensionless);
+    put_text(*var, "coordinates", "time y x");
+  };
+  field("P", "dimensionless pressure P = p / ph*", &var_P_);
+  field("H", "dimensionless film thickness H = h R / a*^2", &var_H_);
+}
+
+void FieldWriter::put_global_attributes(const nlohmann::json& parameters) {
+  put_text(NC_GLOBAL, "Conventions", kConventions);
+  put_text(NC_GLOBAL, "title", layout_.title);
+  put_text(NC_GLOBAL, "source", std::string("ehlsim ") + EHLSIM_VERSION);
+  put_text(NC_GLOBAL, "references", kReferences);
+  put_text(NC_GLOBAL, "ehlsim_version", EHLSIM_VERSION);
+  put_text(NC_GLOBAL, "ehlsim_parameters", parameters.dump());
+  const nlohmann::json flat = flatten_parameters(parameters);
+  for (auto it = flat.begin(); it != flat.end(); ++it) {
+    const std::string& name = it.key();
+    const nlohmann::json& v = *it;
+    if (v.is_boolean()) {
+      put_text(NC_GLOBAL, name.c_str(), v.get<bool>() ? "true" : "false");
+    } else if (v.is_number_integer()) {
+      const int i = v.get<int>();
+      check(nc_put_att_int(ncid_, NC_GLOBAL, name.c_str(), NC_INT, 1, &i), name.c_str());
+    } else if (v.is_number()) {
+      const double d = v.get<double>();
+      check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, 1, &d), name.c_str());
+    } else if (v.is_string()) {
+      put_text(NC_GLOBAL, name.c_str(), v.get<std::string>());
+    } else if (v.is_array()) {
+      if (v.empty()) continue;  // e.g. no output.snapshot_times: nothing to record
+      const std::vector<double> values = v.get<std::vector<double>>();
+      check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, values.size(),
+                              values.data()),
+            name.c_str());
+    } else {
+      put_text(NC_GLOBAL, name.c_str(), "none");  // null: e.g. time.T_end until lift-off
+    }
+  }
+}
+
+void FieldWriter::write_coordinates() {
+  check(nc_put_var_double(ncid_, var_x_, layout_.x.data()), "nc_put_var(x)");
+  check(nc_put_var_double(ncid_, var_y_, layout_.y.data()), "nc_put_var(y)");
+}
+
 FieldWriter::~FieldWriter() {
   if (ncid_ >= 0) nc_close(ncid_);  // then file_ removes the partial file
 }
 
-void FieldWriter::append(double T, const Field& P, const Field& H) {
+void FieldWriter::append(double T, std::span<const double> P, std::span<const double> H) {
   if (ncid_ < 0) throw std::logic_error("FieldWriter::append after commit");
-  if (P.n() != grid_.n || H.n() != grid_.n) {
+  if (P.size() != layout_.points() || H.size() != layout_.points()) {
     throw std::invalid_argument(
-        fmt::format("FieldWriter: fields of {} points per side on a grid of {}", P.n(), grid_.n));
+        fmt::format("FieldWriter: fields of {} and {} points on a grid of {} x {}", P.size(),
+                    H.size(), layout_.x.size(), layout_.y.size()));
   }
-  const auto n = static_cast<std::size_t>(grid_.n);
   const std::size_t index = snapshots_;
-  check(nc_put_var1_double(ncid_, var_T_, &index, &T), "nc_put_var1(T)");
+  check(nc_put_var1_double(ncid_, var_time_, &index, &T), "nc_put_var1(time)");
   const std::array<std::size_t, 3> start = {index, 0, 0};
-  const std::array<std::size_t, 3> count = {1, n, n};
+  const std::array<std::size_t, 3> count = {1, layout_.y.size(), layout_.x.size()};
   check(nc_put_vara_double(ncid_, var_P_, start.data(), count.data(), P.data()), "nc_put_vara(P)");
   check(nc_put_vara_double(ncid_, var_H_, start.data(), count.data(), H.data()), "nc_put_vara(H)");
   ++snapshots_;

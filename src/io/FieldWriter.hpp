@@ -1,34 +1,57 @@
 #pragma once
 // fields.nc: snapshots of the pressure P and the film thickness H (NetCDF-4,
-// CF-1.8 attributes), written atomically.
+// CF-1.8), written atomically.
 //
-// Layout: dimensions time (unlimited), y, x; coordinate variables X(x), Y(y),
-// T(time); data P(time, y, x) and H(time, y, x) in double precision, one
-// snapshot per chunk (deflate level 1 with shuffle).  Global attributes:
-// Conventions, title, source, ehlsim_version, every effective parameter as
-// "<section>_<name>" and the whole set as JSON text in "ehlsim_parameters".
+// Layout: dimensions time (unlimited), y, x with their coordinate variables
+// time(time), y(y), x(x) (named like their dimensions, so that CF readers such
+// as ParaView's NetCDF reader and xarray take them as coordinates); data
+// P(time, y, x) and H(time, y, x) in double precision, one snapshot per chunk
+// (deflate level 1 with shuffle).  Global attributes: Conventions, title,
+// source, ehlsim_version, every effective parameter as "<section>_<name>" and
+// the whole set as JSON text in "ehlsim_parameters".
 #include <cstddef>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
 
 #include "grid/Grid.hpp"
 #include "io/AtomicFile.hpp"
 
 namespace ehlsim {
 
+/// What a fields file describes: the coordinate of every column (X) and row
+/// (Y) of the stored fields, which need not be square or centred (a rolling
+/// contact's domain is X in [-4.5, 1.5], Y in [-3, 3]), and the file's title.
+struct FieldLayout {
+  std::vector<double> x;
+  std::vector<double> y;
+  std::string title;
+
+  /// The square grid of an impact run (RunOutput passes the full grid).
+  [[nodiscard]] static FieldLayout impact(const Grid2D& grid);
+  [[nodiscard]] std::size_t points() const { return x.size() * y.size(); }
+};
+
 class FieldWriter {
  public:
   /// Creates "<path>.part" and defines the file.  `parameters` is the echo of
   /// the effective parameters (effective_parameters_json).  Throws
   /// std::runtime_error with the NetCDF message.
+  FieldWriter(const std::filesystem::path& path, FieldLayout layout,
+              const nlohmann::json& parameters);
+  /// The impact's file on `grid` (FieldLayout::impact).
   FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
               const nlohmann::json& parameters);
   ~FieldWriter();
   FieldWriter(const FieldWriter&) = delete;
   FieldWriter& operator=(const FieldWriter&) = delete;
 
-  /// Appends one snapshot at time T (P and H on the grid given at construction).
-  void append(double T, const Field& P, const Field& H);
+  /// Appends one snapshot at time T: P and H hold one value per point of the
+  /// layout, row-major (value (i, j) at j * x.size() + i, i along X).
+  void append(double T, std::span<const double> P, std::span<const double> H);
+  void append(double T, const Field& P, const Field& H) { append(T, P.span(), H.span()); }
   /// Closes the file and renames it to its final name.
   void commit();
   [[nodiscard]] std::size_t snapshots() const { return snapshots_; }
@@ -36,11 +59,21 @@ class FieldWriter {
 
  private:
   void check(int status, const char* what) const;
+  void put_text(int var, const char* name, const std::string& value) const;
+  void define_coordinates();
+  void define_fields();
+  void put_global_attributes(const nlohmann::json& parameters);
+  void write_coordinates();
 
   PartialFile file_;
-  Grid2D grid_;
+  FieldLayout layout_;
   int ncid_ = -1;
-  int var_T_ = -1;
+  int dim_time_ = -1;
+  int dim_y_ = -1;
+  int dim_x_ = -1;
+  int var_time_ = -1;
+  int var_y_ = -1;
+  int var_x_ = -1;
   int var_P_ = -1;
   int var_H_ = -1;
   std::size_t snapshots_ = 0;

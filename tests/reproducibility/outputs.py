@@ -48,12 +48,12 @@ def ncdump(path, variables=None):
 
 def read_snapshots(path):
     """{T text: (P values, H values)} of fields.nc, each value as text."""
-    data = ncdump(path, ["T", "P", "H"]).split("data:", 1)[1]
+    data = ncdump(path, ["time", "P", "H"]).split("data:", 1)[1]
     arrays = {}
     for name, values in re.findall(r"(\w+) =([^;]*);", data):
         arrays[name] = values.replace("\n", " ").split(",")
     arrays = {name: [v.strip() for v in values] for name, values in arrays.items()}
-    times = arrays["T"]
+    times = arrays["time"]
     size = len(arrays["P"]) // len(times)
     return {t: (arrays["P"][k * size:(k + 1) * size], arrays["H"][k * size:(k + 1) * size])
             for k, t in enumerate(times)}
