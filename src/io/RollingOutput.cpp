@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <utility>
 
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
@@ -66,7 +67,9 @@ void write_rolling_run(const std::filesystem::path& dir, const RollingConfig& co
                        double wall_seconds) {
   std::filesystem::create_directories(dir);
   const nlohmann::json parameters = rolling_parameters_json(config);
-  FieldWriter fields(dir / "fields.nc", result.grid, parameters);
+  FieldLayout layout = FieldLayout::impact(result.grid);
+  layout.title = "ehlsim: steady rolling EHL point contact (pressure and film thickness)";
+  FieldWriter fields(dir / "fields.nc", std::move(layout), parameters);
   fields.append(0.0, result.P, result.H);
   write_profiles(dir, result);
   fields.commit();

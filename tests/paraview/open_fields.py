@@ -1,9 +1,10 @@
 """fields.nc opens in ParaView with its true coordinates and its snapshots as time steps.
 
 Run by pvbatch under xvfb-run (for the picture), through run.sh:
-    xvfb-run -a pvbatch open_fields.py EHLSIM OUT_DIR
+    xvfb-run -a pvbatch open_fields.py EHLSIM OUT_DIR [impact|rolling]
 
-Runs a small impact into OUT_DIR/run, opens its fields.nc with ParaView's
+Runs a small impact (or steady rolling contact: one snapshot on the
+non-centred domain X in [-4.5, 1.5]) into OUT_DIR/run, opens its fields.nc with ParaView's
 NetCDF (CF) reader and checks against the file itself (read with ncdump,
 independently of ParaView) and run.json:
 - the spatial bounds are the true X, Y range (not the indices 0..n-1);
@@ -24,8 +25,10 @@ from paraview.simple import (ColorBy, CreateRenderView, Delete, Disconnect,
                              GetColorTransferFunction, NetCDFReader, ResetCamera, SaveScreenshot,
                              Show, Text)
 
-# A small case with several snapshots: 33^2 runs to lift-off in about a second.
-CASE = ["--set", "grid.points=33", "--set", "output.snapshot_every=5"]
+# Small cases: the impact with several snapshots, 33^2 to lift-off in about a
+# second; the rolling contact, 33^2 in a fraction of a second.
+CASES = {"impact": ["--set", "grid.points=33", "--set", "output.snapshot_every=5"],
+         "rolling": ["--set", "grid.points=33"]}
 # ncdump's digits that give every double back exactly.
 NCDUMP_PRECISION = "9,17"
 # Relative tolerance between ParaView's numbers and the file's (both doubles).
@@ -33,10 +36,20 @@ TOLERANCE = 1e-12
 PICTURE_SIZE = [900, 760]
 
 
-def run_impact(ehlsim, run_dir):
+def run_case(ehlsim, mode, run_dir):
+    """run.json of the run, with "expected_bounds" [x0, x1, y0, y1] and "snapshots" added."""
     shutil.rmtree(run_dir, ignore_errors=True)
-    subprocess.run([ehlsim, "impact", *CASE, "--out", str(run_dir), "--quiet"], check=True)
-    return json.loads((run_dir / "run.json").read_text())
+    subprocess.run([ehlsim, mode, *CASES[mode], "--out", str(run_dir), "--quiet"], check=True)
+    run = json.loads((run_dir / "run.json").read_text())
+    if mode == "impact":
+        half = run["grid"]["half_width"]
+        run["expected_bounds"] = [-half, half, -half, half]
+        run["snapshots"] = run["files"]["snapshots"]
+    else:
+        g = run["parameters"]["grid"]
+        run["expected_bounds"] = [g["x_min"], g["x_max"], g["y_min"], g["y_max"]]
+        run["snapshots"] = 1
+    return run
 
 
 def read_with_ncdump(path):
@@ -60,7 +73,7 @@ def check_reader(reader, stored, run):
     """Compares what ParaView reads with the stored values: (time step checked, failures)."""
     failures = []
     times = list(reader.TimestepValues)
-    snapshots = run["files"]["snapshots"]
+    snapshots = run["snapshots"]
     if len(times) != snapshots or not all_close(times, stored["time"]):
         failures.append(f"time steps {times}: expected the {snapshots} stored times "
                         f"{stored['time']}")
@@ -72,11 +85,11 @@ def check_reader(reader, stored, run):
     expected_range = [min(per_snapshot[k]), max(per_snapshot[k])]
     reader.UpdatePipeline(T)
     data = servermanager.Fetch(reader)
-    half = run["grid"]["half_width"]
+    expected = run["expected_bounds"]
     bounds = list(data.GetBounds())[:4]
-    if not all_close(bounds, [-half, half, -half, half]) or not all_close(
+    if not all_close(bounds, expected) or not all_close(
             bounds, [stored["x"][0], stored["x"][-1], stored["y"][0], stored["y"][-1]]):
-        failures.append(f"bounds {bounds}: expected X, Y in [{-half}, {half}]")
+        failures.append(f"bounds {bounds}: expected [X0, X1, Y0, Y1] = {expected}")
     array = data.GetPointData().GetArray("P")
     if array is None:
         failures.append("no point array P")
@@ -109,8 +122,9 @@ def save_picture(reader, T, view, path):
 
 def main():
     ehlsim, out_dir = sys.argv[1], Path(sys.argv[2])
+    mode = sys.argv[3] if len(sys.argv) > 3 else "impact"
     out_dir.mkdir(parents=True, exist_ok=True)
-    run = run_impact(ehlsim, out_dir / "run")
+    run = run_case(ehlsim, mode, out_dir / "run")
     fields = out_dir / "run" / "fields.nc"
     stored = read_with_ncdump(fields)
     reader = NetCDFReader(FileName=[str(fields)])
