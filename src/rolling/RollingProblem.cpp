@@ -239,7 +239,13 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor) {
         "force error {:.3e} (solver.tolerance = {:g})",
         s.cfg.max_cycles, last.points, last.residual, last.force_error, s.cfg.tolerance));
   }
-  return s.result();
+  RollingResult result = s.result();
+  if (!(result.Hm > 0.0))
+    throw RollingFailure(fmt::format(
+        "the film is negative (H = {:.3g} at X = {:.4g}, Y = {:.4g}) on the {}^2 grid: the "
+        "grid cannot resolve this film: use more points (grid.points)",
+        result.Hm, result.X_Hm, result.Y_Hm, result.grid.n));
+  return result;
 }
 
 }  // namespace ehlsim
