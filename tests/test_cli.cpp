@@ -120,17 +120,20 @@ TEST(Cli, VersionAndHelp) {
 }
 
 TEST(Cli, UsageDocumentsTheHelpVerbatim) {
-  // docs/usage.md quotes `ehlsim impact --help` in full: a new or changed
-  // option or key must be documented there too.
-  const Result help = ehlsim("impact --help");
-  ASSERT_EQ(help.exit_code, 0);
+  // docs/usage.md quotes `ehlsim impact --help` and `ehlsim rolling --help` in
+  // full (scripts/sync_usage_help.py writes them): a new or changed option or
+  // key must be documented there too.
   const std::string usage = read_file(fs::path(EHLSIM_SOURCE_DIR) / "docs" / "usage.md");
-  const std::string intro =
-      "`./build/apps/ehlsim impact --help` (ehlsim " EHLSIM_VERSION "), verbatim:\n\n```text\n";
-  const std::size_t start = usage.find(intro);
-  ASSERT_NE(start, std::string::npos) << "docs/usage.md: no verbatim --help block";
-  const std::size_t body = start + intro.size();
-  EXPECT_EQ(usage.substr(body, usage.find("```\n", body) - body), help.out);
+  for (const std::string command : {"impact", "rolling"}) {
+    const Result help = ehlsim(command + " --help");
+    ASSERT_EQ(help.exit_code, 0);
+    const std::string intro = "`./build/apps/ehlsim " + command +
+                              " --help` (ehlsim " EHLSIM_VERSION "), verbatim:\n\n```text\n";
+    const std::size_t start = usage.find(intro);
+    ASSERT_NE(start, std::string::npos) << "docs/usage.md: no verbatim block for " << command;
+    const std::size_t body = start + intro.size();
+    EXPECT_EQ(usage.substr(body, usage.find("```\n", body) - body), help.out) << command;
+  }
 }
 
 /// `ehlsim impact --quiet` on 33^2 into `run` with further options.
