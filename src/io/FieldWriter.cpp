@@ -4,8 +4,10 @@
 #include <netcdf.h>
 
 #include <array>
+#include <cerrno>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "io/NetcdfStatus.hpp"
@@ -43,6 +45,13 @@ nlohmann::json flatten_parameters(const nlohmann::json& parameters) {
 }
 
 void FieldWriter::check(int status, const char* what) const {
+  // A write that fails inside HDF5 (a full disk) reaches NetCDF as "HDF
+  // error"; errno, cleared before the writing calls, still has the reason.
+  const int error = errno;
+  if (status != NC_NOERR && error != 0 && status != error) {
+    check_netcdf(status, "write", file_.part_path(),
+                 fmt::format("{} ({})", what, std::generic_category().message(error)));
+  }
   check_netcdf(status, "write", file_.part_path(), what);
 }
 
@@ -146,6 +155,7 @@ void FieldWriter::append(double T, const Field& P, const Field& H) {
   }
   const auto n = static_cast<std::size_t>(grid_.n);
   const std::size_t index = snapshots_;
+  errno = 0;
   check(nc_put_var1_double(ncid_, var_T_, &index, &T), "nc_put_var1(T)");
   const std::array<std::size_t, 3> start = {index, 0, 0};
   const std::array<std::size_t, 3> count = {1, n, n};
@@ -156,6 +166,7 @@ void FieldWriter::append(double T, const Field& P, const Field& H) {
 
 void FieldWriter::commit() {
   if (ncid_ < 0) return;
+  errno = 0;
   const int status = nc_close(ncid_);
   ncid_ = -1;
   check(status, "nc_close");
