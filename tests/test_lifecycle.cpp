@@ -398,7 +398,8 @@ TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
   const std::regex started("pid ([0-9]+)");
   for (auto it = std::sregex_iterator(out.begin(), out.end(), started);
        it != std::sregex_iterator(); ++it) {
-    EXPECT_FALSE(fs::exists(fs::path("/proc") / (*it)[1].str())) << "case pid " << (*it)[1] << " runs on";
+    EXPECT_FALSE(fs::exists(fs::path("/proc") / (*it)[1].str()))
+        << "pid " << (*it)[1] << " runs on";
   }
   EXPECT_NE(out.find("FAILED   M = 100"), std::string::npos) << out;
   EXPECT_NE(out.find("(exit 143): ehlsim: interrupted by SIGTERM"), std::string::npos) << out;
