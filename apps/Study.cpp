@@ -36,6 +36,7 @@
 #include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
+#include "io/RunDirectory.hpp"
 
 extern char** environ;
 
@@ -196,7 +197,9 @@ void run_cases(std::vector<Case>& cases, int jobs) {
     while (next < cases.size() && static_cast<int>(running.size()) < jobs &&
            InterruptGuard::received() == 0) {
       Case& c = cases[next++];
-      std::vector<std::string> args = {"ehlsim", "impact", "--out", c.dir.string()};
+      // argv[0] the binary's path: the resume command in a case's log works as it is.
+      std::vector<std::string> args = {fs::read_symlink(kSelf).string(), "impact", "--out",
+                                       c.dir.string()};
       for (const std::string& o : c.overrides) {
         args.push_back("--set");
         args.push_back(o);
@@ -313,6 +316,8 @@ int run_study(const StudyOptions& options) {
   if (!options.no_plots && !fs::exists(script)) {
     throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
   }
+  // One study per directory: a second one would truncate the logs of the first.
+  const PathLock lock(resolve_run_directory(out), out);
   fs::create_directories(out / "logs");
   fmt::print("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, {} at a time\n", out.string(),
              fmt::join(kStudyM, ", "), kStudyL, options.grid, options.jobs);

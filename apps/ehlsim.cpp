@@ -325,8 +325,20 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
 }
 
 int run_spike(const SpikeOptions& options) {
+  const InterruptGuard interrupts;
   const std::filesystem::path out = options.out_dir.empty() ? options.run_dir : options.out_dir;
-  const RunAnalysisReport report = analyze_run_directory(options.run_dir, out, options.overrides);
+  // Not while an impact run (or another analysis) writes there.
+  std::optional<PathLock> lock;
+  if (!out.empty()) lock.emplace(resolve_run_directory(out), out);
+  RunAnalysisReport report;
+  try {
+    report = analyze_run_directory(options.run_dir, out, options.overrides);
+  } catch (const RunInterrupted&) {
+    const int signal = InterruptGuard::received();
+    std::fprintf(stderr, "ehlsim: interrupted by %s: the spike files in '%s' were not changed\n",
+                 signal_name(signal).c_str(), out.c_str());
+    return exit_code_for_signal(signal);
+  }
   if (!options.quiet) {
     fmt::print("{} snapshots analysed; wrote", report.snapshots);
     for (const auto& file : report.files) fmt::print(" {}", file.string());

@@ -362,7 +362,13 @@ TEST(Lifecycle, ASecondRunIntoABusyDirectoryExitsAtOnce) {
                                      "' is in use by another ehlsim run (pid " +
                                      std::to_string(first.pid) + " on host "))
       << second.err;
-  EXPECT_LT(seconds, 10.0);                                   // at once, not after the first run
+  EXPECT_LT(seconds, 10.0);  // at once, not after the first run
+  // Nor does an analysis write there meanwhile.
+  const Result spike = ehlsim("spike " + quote(run.string()));
+  EXPECT_EQ(spike.exit_code, 2);
+  EXPECT_NE(spike.err.find("is in use by another ehlsim run (pid " + std::to_string(first.pid)),
+            std::string::npos)
+      << spike.err;
   EXPECT_EQ(exit_code_of(first), 0) << read_file(first.err);  // undisturbed
   EXPECT_TRUE(fs::exists(run / "run.json"));
 

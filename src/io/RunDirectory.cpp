@@ -200,8 +200,7 @@ PathLock::~PathLock() {
   close(fd_);
 }
 
-namespace {
-fs::path resolve_target(const fs::path& target) {
+fs::path resolve_run_directory(const fs::path& target) {
   if (target.empty()) throw ConfigError("--out '': the run directory needs a name", "--out");
   const fs::path absolute = without_trailing_separator(fs::absolute(target).lexically_normal());
   if (absolute.filename().empty() || absolute.filename() == "..") {
@@ -211,11 +210,10 @@ fs::path resolve_target(const fs::path& target) {
   fs::create_directories(absolute.parent_path());
   return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
 }
-}  // namespace
 
 RunDirectory::RunDirectory(const fs::path& target)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_target(target)),
+      resolved_(resolve_run_directory(target)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);

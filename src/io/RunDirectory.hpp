@@ -27,7 +27,8 @@ class PathLock {
  public:
   /// Throws ConfigError naming the holder (pid, host, start time) when
   /// another process holds the lock, std::runtime_error when the lock file
-  /// cannot be created.  `shown` is the target as the user named it.
+  /// cannot be created.  `target` as resolve_run_directory gives it, `shown`
+  /// as the user named it.
   PathLock(const std::filesystem::path& target, const std::filesystem::path& shown);
   ~PathLock();
   PathLock(const PathLock&) = delete;
@@ -70,6 +71,11 @@ class RunDirectory {
   std::filesystem::path staging_;
   bool published_ = false;
 };
+
+/// `target` absolute, without a trailing separator, with the symbolic links of
+/// its parent resolved (one spelling per directory, for the lock); creates
+/// the parent.  Throws ConfigError for "" or a path without a name.
+[[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
 
 /// Throws ConfigError unless `dir` is missing, an empty directory, or an
 /// earlier ehlsim run: an ehlsim run.json and nothing but files ehlsim writes
