@@ -234,6 +234,21 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   return summary;
 }
 
+/// What run.json records under "invocation".
+nlohmann::json invocation_json(const ImpactOptions& options,
+                               const std::optional<Checkpoint>& checkpoint) {
+  nlohmann::json invocation = {
+      {"config_file",
+       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
+      {"overrides", options.overrides},
+      {"out", options.out_dir}};
+  if (checkpoint)
+    invocation["restart"] = {{"checkpoint", options.restart_file},
+                             {"step", checkpoint->state.step},
+                             {"T", checkpoint->state.ball.T}};
+  return invocation;
+}
+
 int run_impact(const ImpactOptions& options) {
   // First: a signal during the set-up also ends the run cleanly (after its first step).
   const InterruptGuard interrupts;
@@ -265,15 +280,7 @@ int run_impact(const ImpactOptions& options) {
       fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
                  checkpoint->state.step, checkpoint->state.ball.T);
   }
-  nlohmann::json invocation = {
-      {"config_file",
-       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
-      {"overrides", options.overrides},
-      {"out", options.out_dir}};
-  if (checkpoint)
-    invocation["restart"] = {{"checkpoint", options.restart_file},
-                             {"step", checkpoint->state.step},
-                             {"T", checkpoint->state.ball.T}};
+  const nlohmann::json invocation = invocation_json(options, checkpoint);
   KeptCheckpoint kept;
   const std::filesystem::path kept_path = run_dir->checkpoint();
   try {
