@@ -14,6 +14,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -32,8 +33,10 @@
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
+#include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
+#include "io/RunDirectory.hpp"
 
 extern char** environ;
 
@@ -78,6 +81,7 @@ struct Case {
   fs::path dir;
   fs::path log;
   pid_t pid = -1;
+  bool signalled = false;  ///< the study's signal was passed on to it
   int exit_code = -1;
   double wall_seconds = 0.0;
   std::chrono::steady_clock::time_point start;
@@ -164,13 +168,38 @@ std::string last_line(const fs::path& path) {
   return last;
 }
 
+/// Passes the signal the study received on to its running children, once each.
+void forward_signal(std::map<pid_t, Case*>& running) {
+  const int signal = InterruptGuard::received();
+  if (signal == 0) return;
+  for (auto& [pid, c] : running) {
+    if (!c->signalled) kill(pid, signal);
+    c->signalled = true;
+  }
+}
+
+/// Waits for `pid`, passing a signal the study receives on to it.
+int wait_forwarding(pid_t pid) {
+  int status = 0;
+  bool signalled = false;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
+    if (!signalled && InterruptGuard::received() != 0) kill(pid, InterruptGuard::received());
+    signalled = InterruptGuard::received() != 0;
+  }
+  return exit_code_of(status);
+}
+
 void run_cases(std::vector<Case>& cases, int jobs) {
   std::map<pid_t, Case*> running;
   std::size_t next = 0;
   while (next < cases.size() || !running.empty()) {
-    while (next < cases.size() && static_cast<int>(running.size()) < jobs) {
+    while (next < cases.size() && static_cast<int>(running.size()) < jobs &&
+           InterruptGuard::received() == 0) {
       Case& c = cases[next++];
-      std::vector<std::string> args = {"ehlsim", "impact", "--out", c.dir.string()};
+      // argv[0] the binary's path: the resume command in a case's log works as it is.
+      std::vector<std::string> args = {fs::read_symlink(kSelf).string(), "impact", "--out",
+                                       c.dir.string()};
       for (const std::string& o : c.overrides) {
         args.push_back("--set");
         args.push_back(o);
@@ -188,8 +217,13 @@ void run_cases(std::vector<Case>& cases, int jobs) {
       fmt::print("  started  M = {:<4g} (pid {}, log {})\n", c.M, c.pid, c.log.string());
       std::fflush(stdout);
     }
+    if (running.empty()) break;  // interrupted before the next start
     int status = 0;
     const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0 && errno == EINTR) {
+      forward_signal(running);
+      continue;
+    }
     if (pid < 0) throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
     const auto it = running.find(pid);
     if (it == running.end()) continue;
@@ -217,6 +251,24 @@ void write_dry_reference(const fs::path& path, const ImpactConfig& config) {
     csv.append(fmt::format("{:.10g},{:.10g}", T, dry.at(T)));
   }
   csv.commit();
+}
+
+/// The one line of a study ended by a signal (no study.json is written); its exit code.
+int report_interruption(const std::vector<Case>& cases) {
+  std::vector<std::string> stopped;
+  for (const Case& c : cases) {
+    if (c.signalled) stopped.push_back(case_name(c.M));
+  }
+  const int signal = InterruptGuard::received();
+  std::fflush(stdout);
+  std::fprintf(
+      stderr, "ehlsim: interrupted by %s: the study stopped%s; no study.json was written\n",
+      signal_name(signal).c_str(),
+      stopped.empty()
+          ? ""
+          : fmt::format(" {} (their logs say how to resume each)", fmt::join(stopped, ", "))
+                .c_str());
+  return exit_code_for_signal(signal);
 }
 
 fs::path default_plot_script() { return fs::path(EHLSIM_SCRIPT_DIR) / "plot_study.py"; }
@@ -250,6 +302,8 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
 }
 
 int run_study(const StudyOptions& options) {
+  // SIGINT, SIGTERM, SIGHUP go on to the running cases; the study waits for them.
+  const InterruptGuard interrupts;
   const auto start = std::chrono::steady_clock::now();
   const fs::path out = options.out_dir;
   std::vector<Case> cases = study_cases(options, out);
@@ -262,11 +316,14 @@ int run_study(const StudyOptions& options) {
   if (!options.no_plots && !fs::exists(script)) {
     throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
   }
+  // One study per directory: a second one would truncate the logs of the first.
+  const PathLock lock(resolve_run_directory(out), out);
   fs::create_directories(out / "logs");
   fmt::print("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, {} at a time\n", out.string(),
              fmt::join(kStudyM, ", "), kStudyL, options.grid, options.jobs);
   std::fflush(stdout);
   run_cases(cases, options.jobs);
+  if (InterruptGuard::received() != 0) return report_interruption(cases);
 
   bool ok = true;
   nlohmann::json summary = {
@@ -297,9 +354,7 @@ int run_study(const StudyOptions& options) {
     int code = cli::kExitFailure;
     try {
       const pid_t pid = spawn(options.python, {options.python, script.string(), out.string()}, log);
-      int status = 0;
-      waitpid(pid, &status, 0);
-      code = exit_code_of(status);
+      code = wait_forwarding(pid);
     } catch (const std::runtime_error& e) {
       std::ofstream(log) << e.what() << '\n';  // reported below like a failed script
     }
@@ -313,6 +368,7 @@ int run_study(const StudyOptions& options) {
       fmt::print("  figures in {}\n", (out / "figures").string());
     }
   }
+  if (InterruptGuard::received() != 0) return report_interruption(cases);
   summary["wall_seconds"] = seconds_since(start);
   write_json_atomic(out / "study.json", summary);
   fmt::print("study {} in {:.1f} s; summary in {}\n", ok ? "finished" : "FAILED",

@@ -18,8 +18,10 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -34,9 +36,11 @@
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "io/Checkpoint.hpp"
+#include "io/Interrupt.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
+#include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
 #include "io/ThreadBudget.hpp"
@@ -60,6 +64,7 @@ struct ImpactOptions {
   std::vector<std::string> overrides;
   std::string restart_file;  ///< "" = start at Delta0
   bool quiet = false;
+  std::string program = "ehlsim";  ///< argv[0], for the resume command
 };
 
 CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
@@ -132,7 +137,8 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
   std::fflush(stdout);
 }
 
-void print_summary(const RunSummary& s, const RunOutput& output) {
+void print_summary(const RunSummary& s, const RunOutput& output,
+                   const std::filesystem::path& directory) {
   switch (s.outcome) {
     case RunOutcome::LiftOff:
       fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
@@ -151,7 +157,7 @@ void print_summary(const RunSummary& s, const RunOutput& output) {
       "max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
       s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
   fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps,
-             output.snapshots_written(), output.elapsed_seconds(), output.directory().string());
+             output.snapshots_written(), output.elapsed_seconds(), directory.string());
   if (s.unconverged_steps > 0 || s.retried_steps > 0)
     fmt::print(
         "{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
@@ -159,51 +165,53 @@ void print_summary(const RunSummary& s, const RunOutput& output) {
         s.unconverged_steps, s.retried_steps);
 }
 
-int run_impact(const ImpactOptions& options) {
-  ImpactConfig config;
-  try {
-    std::optional<std::filesystem::path> file;
-    if (!options.config_file.empty()) file = options.config_file;
-    config = load_config(file, options.overrides);
-  } catch (const ConfigError& e) {
-    print_error(e.what());
-    return kExitBadInput;
-  }
-  const nlohmann::json parameters = effective_parameters_json(config);
-  std::optional<Checkpoint> checkpoint;
-  if (!options.restart_file.empty()) {
-    try {
-      checkpoint = read_checkpoint(options.restart_file);
-    } catch (const std::runtime_error& e) {
-      print_error(fmt::format("--restart: {}", e.what()));
-      return kExitBadInput;
-    }
-    check_restart_compatible(checkpoint->parameters, parameters, options.restart_file);
-  }
-  if (!options.quiet) {
-    print_case(config, options.out_dir);
-    if (checkpoint)
-      fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
-                 checkpoint->state.step, checkpoint->state.ball.T);
-  }
+/// `arg` for a shell: quoted unless it is made of safe characters only.
+std::string shell_word(const std::string& arg) {
+  const bool safe = !arg.empty() && std::all_of(arg.begin(), arg.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 ||
+           std::string_view("_-+=.,:/@%").find(c) != std::string_view::npos;
+  });
+  if (safe) return arg;
+  std::string out = "'";
+  for (const char c : arg) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
 
-  nlohmann::json invocation = {
-      {"config_file",
-       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
-      {"overrides", options.overrides},
-      {"out", options.out_dir}};
-  if (checkpoint)
-    invocation["restart"] = {{"checkpoint", options.restart_file},
-                             {"step", checkpoint->state.step},
-                             {"T", checkpoint->state.ball.T}};
+/// The command that continues this run from `checkpoint`.
+std::string resume_command(const ImpactOptions& options, const std::filesystem::path& checkpoint) {
+  std::vector<std::string> words = {options.program, "impact"};
+  if (!options.config_file.empty()) words.push_back(options.config_file);
+  for (const std::string& o : options.overrides) {
+    words.push_back("--set");
+    words.push_back(o);
+  }
+  words.insert(words.end(), {"--out", options.out_dir, "--restart", checkpoint.string()});
+  if (options.quiet) words.push_back("--quiet");
+  std::string command;
+  for (const std::string& w : words) command += (command.empty() ? "" : " ") + shell_word(w);
+  return command;
+}
+
+/// What the run leaves for a restart when it does not complete.
+struct KeptCheckpoint {
+  int step = 0;  ///< 0: none written by this run
+};
+
+/// Runs the case into the staging directory of `run_dir` and publishes it.
+/// Throws RunInterrupted after a signal, with the checkpoint written.
+RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
+                    std::optional<Checkpoint>& checkpoint, RunDirectory& run_dir,
+                    const nlohmann::json& invocation, KeptCheckpoint& kept) {
+  const nlohmann::json parameters = effective_parameters_json(config);
   // spike.csv first: run.json, written last by RunOutput, marks a complete run.
-  SpikeOutput spike(options.out_dir, config);
-  RunOutput output(options.out_dir, config, !options.quiet, invocation);
+  SpikeOutput spike(run_dir.staging(), config);
+  RunOutput output(run_dir.staging(), config, !options.quiet, invocation);
   output.add_file("spike", SpikeOutput::kFile);
   // The thread team follows the cores that other processes leave free, unless
   // the user fixed it with OMP_NUM_THREADS (io/ThreadBudget.hpp).
   ThreadBudget threads(omp_get_max_threads());
-  std::vector<ImpactObserver*> chain{&spike, &output};
+  StopOnSignal stop;
+  std::vector<ImpactObserver*> chain{&spike, &output, &stop};
   if (!user_set_thread_count()) chain.push_back(&threads);
   ObserverChain observers(chain);
   ImpactProblem problem(config);
@@ -214,16 +222,87 @@ int run_impact(const ImpactOptions& options) {
     output.resume_after(checkpoint->state.ball.T);
     problem.restart_from(std::move(checkpoint->state));
   }
-  if (config.checkpoint_every > 0) {
-    const std::filesystem::path path = std::filesystem::path(options.out_dir) / kCheckpointFile;
-    output.add_file("checkpoint", kCheckpointFile);
-    problem.set_state_sink(config.checkpoint_every, [path, &parameters](const ImpactState& state) {
-      write_checkpoint(path, state, parameters);
-    });
-  }
+  // Checkpoints go to DIR.checkpoint.nc: DIR keeps the earlier run's until this one publishes.
+  problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
+    write_checkpoint(run_dir.checkpoint(), state, parameters);
+    if (kept.step == 0 && config.checkpoint_every > 0)
+      output.add_file("checkpoint", kCheckpointFile);
+    kept.step = state.step;
+  });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  if (!options.quiet) print_summary(summary, output);
+  run_dir.publish(config.checkpoint_every > 0 && kept.step > 0);
+  if (!options.quiet) print_summary(summary, output, run_dir.target());
+  return summary;
+}
+
+/// What run.json records under "invocation".
+nlohmann::json invocation_json(const ImpactOptions& options,
+                               const std::optional<Checkpoint>& checkpoint) {
+  nlohmann::json invocation = {
+      {"config_file",
+       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
+      {"overrides", options.overrides},
+      {"out", options.out_dir}};
+  if (checkpoint)
+    invocation["restart"] = {{"checkpoint", options.restart_file},
+                             {"step", checkpoint->state.step},
+                             {"T", checkpoint->state.ball.T}};
+  return invocation;
+}
+
+int run_impact(const ImpactOptions& options) {
+  // First: a signal during the set-up also ends the run cleanly (after its first step).
+  const InterruptGuard interrupts;
+  ImpactConfig config;
+  try {
+    std::optional<std::filesystem::path> file;
+    if (!options.config_file.empty()) file = options.config_file;
+    config = load_config(file, options.overrides);
+  } catch (const ConfigError& e) {
+    print_error(e.what());
+    return kExitBadInput;
+  }
+  std::optional<Checkpoint> checkpoint;
+  if (!options.restart_file.empty()) {
+    try {
+      checkpoint = read_checkpoint(options.restart_file);
+    } catch (const std::runtime_error& e) {
+      print_error(fmt::format("--restart: {}", e.what()));
+      return kExitBadInput;
+    }
+    check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
+                             options.restart_file);
+  }
+  // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
+  std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);
+  if (!options.quiet) {
+    print_case(config, options.out_dir);
+    if (checkpoint)
+      fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
+                 checkpoint->state.step, checkpoint->state.ball.T);
+  }
+  const nlohmann::json invocation = invocation_json(options, checkpoint);
+  KeptCheckpoint kept;
+  const std::filesystem::path kept_path = run_dir->checkpoint();
+  try {
+    simulate(options, config, checkpoint, *run_dir, invocation, kept);
+  } catch (const RunInterrupted& e) {
+    run_dir.reset();  // the partial files go; the checkpoint stays
+    const int signal = InterruptGuard::received();
+    std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
+                 signal_name(signal).c_str(), e.step, e.T,
+                 resume_command(options, kept_path).c_str());
+    return exit_code_for_signal(signal);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::exception& e) {
+    if (kept.step == 0) throw;
+    run_dir.reset();
+    print_error(fmt::format("{}; resume from the checkpoint of step {} with: {}", e.what(),
+                            kept.step, resume_command(options, kept_path)));
+    return kExitFailure;
+  }
   return kExitOk;
 }
 
@@ -255,8 +334,20 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
 }
 
 int run_spike(const SpikeOptions& options) {
+  const InterruptGuard interrupts;
   const std::filesystem::path out = options.out_dir.empty() ? options.run_dir : options.out_dir;
-  const RunAnalysisReport report = analyze_run_directory(options.run_dir, out, options.overrides);
+  // Not while an impact run (or another analysis) writes there.
+  std::optional<PathLock> lock;
+  if (!out.empty()) lock.emplace(resolve_run_directory(out), out);
+  RunAnalysisReport report;
+  try {
+    report = analyze_run_directory(options.run_dir, out, options.overrides);
+  } catch (const RunInterrupted&) {
+    const int signal = InterruptGuard::received();
+    std::fprintf(stderr, "ehlsim: interrupted by %s: the spike files in '%s' were not changed\n",
+                 signal_name(signal).c_str(), out.c_str());
+    return exit_code_for_signal(signal);
+  }
   if (!options.quiet) {
     fmt::print("{} snapshots analysed; wrote", report.snapshots);
     for (const auto& file : report.files) fmt::print(" {}", file.string());
@@ -272,6 +363,7 @@ int run(int argc, char** argv) {
   app.require_subcommand(1);
 
   ImpactOptions impact;
+  if (argc > 0) impact.program = argv[0];
   CLI::App* impact_cmd = add_impact_command(app, impact);
   SpikeOptions spike;
   CLI::App* spike_cmd = add_spike_command(app, spike);
@@ -297,9 +389,8 @@ int run(int argc, char** argv) {
   return kExitBadInput;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// run() with every exception turned into its exit code and one line.
+int run_reporting_errors(int argc, char** argv) {
   try {
     return run(argc, argv);
   } catch (const ehlsim::ConfigError& e) {
@@ -312,4 +403,18 @@ int main(int argc, char** argv) {
     print_error("unknown failure");
     return kExitFailure;
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int code = run_reporting_errors(argc, argv);
+  // HDF5's exit handler crashes (SIGSEGV) on a file whose nc_close failed (a
+  // full disk).  After a failure every file is closed or removed: skip the
+  // exit handlers, flush the streams.
+  if (code != kExitOk) {
+    std::fflush(nullptr);
+    std::_Exit(code);
+  }
+  return code;
 }

@@ -1,6 +1,7 @@
 // The io component: parameter registry (TOML, --set, validation messages,
-// echo), the atomic writers (CSV, NetCDF, JSON), the progress line and the
-// RunOutput observer.
+// echo), the atomic writers (CSV, NetCDF, JSON), the progress line, the
+// RunOutput observer, the run directory transaction and its lock, and the
+// signal flag.
 #include <gtest/gtest.h>
 #include <netcdf.h>
 #include <unistd.h>
@@ -8,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -26,8 +28,10 @@
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FieldWriter.hpp"
+#include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
+#include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
 #include "io/ThreadBudget.hpp"
@@ -1144,6 +1148,160 @@ TEST(RunOutput, RunJsonHasNullForMissingLiftOff) {
   const nlohmann::json j = output.run_json(summary);
   EXPECT_TRUE(j["results"]["T_lift_off"].is_null());
   EXPECT_TRUE(j["results"]["rebound_speed"].is_null());
+}
+
+// ------------------------------------------------- run directory, lock, signals
+
+/// The names in `dir`.
+std::set<std::string> names_in(const fs::path& dir) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.insert(entry.path().filename());
+  return names;
+}
+
+/// Writes a minimal earlier ehlsim run into `dir`.
+void write_earlier_run(const fs::path& dir) {
+  fs::create_directories(dir);
+  write_file(dir / "run.json", R"({"program": {"name": "ehlsim"}})");
+  write_file(dir / "timeseries.csv", "old\n");
+  write_file(dir / "checkpoint.nc", "old checkpoint\n");
+}
+
+TEST(RunDirectory, PublishesIntoAMissingDirectory) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  {
+    RunDirectory run(target);
+    EXPECT_EQ(run.staging().parent_path(), fs::canonical(dir.path()));
+    EXPECT_TRUE(run.staging().filename().string().starts_with(".run.part-"));
+    EXPECT_EQ(run.checkpoint(), dir / "run.checkpoint.nc");
+    write_file(run.staging() / "run.json", "new\n");
+    EXPECT_FALSE(fs::exists(target));  // nothing visible before publish
+    run.publish(false);
+  }
+  EXPECT_EQ(read_file(target / "run.json"), "new\n");
+  EXPECT_EQ(names_in(dir.path()), std::set<std::string>{"run"});  // no staging, no lock
+}
+
+TEST(RunDirectory, ReplacesAnEarlierRunAsAWhole) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  write_file(dir / "run.checkpoint.nc", "checkpoint of the new run\n");
+  {
+    RunDirectory run(target);
+    write_file(run.staging() / "run.json", "new\n");
+    EXPECT_EQ(read_file(target / "timeseries.csv"), "old\n");  // the earlier run until publish
+    run.publish(true);
+  }
+  // The earlier run's files are gone (no stale timeseries.csv); the checkpoint
+  // of the new run moved in.
+  EXPECT_EQ(names_in(target), (std::set<std::string>{"checkpoint.nc", "run.json"}));
+  EXPECT_EQ(read_file(target / "checkpoint.nc"), "checkpoint of the new run\n");
+  EXPECT_EQ(names_in(dir.path()), std::set<std::string>{"run"});
+}
+
+TEST(RunDirectory, AnUnpublishedRunLeavesTheEarlierOneAndItsCheckpoint) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  {
+    RunDirectory run(target);
+    write_file(run.staging() / "timeseries.csv", "new\n");
+    write_file(run.checkpoint(), "kept\n");
+  }  // failed: never published
+  EXPECT_EQ(read_file(target / "timeseries.csv"), "old\n");
+  EXPECT_EQ(read_file(target / "checkpoint.nc"), "old checkpoint\n");
+  EXPECT_EQ(read_file(dir / "run.checkpoint.nc"), "kept\n");
+  EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+}
+
+TEST(RunDirectory, RemovesTheDebrisOfAKilledRun) {
+  TempDir dir;
+  fs::create_directories(dir / ".run.part-999999");
+  write_file(dir / ".run.part-999999" / "fields.nc.part", "debris");
+  fs::create_directories(dir / ".run.old-999999");
+  fs::create_directories(dir / ".other.part-999999");  // another target's: not ours
+  {
+    RunDirectory run(dir / "run");
+    EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{".other.part-999999", ".run.lock",
+                                                           run.staging().filename().string()}));
+  }
+  EXPECT_EQ(names_in(dir.path()), std::set<std::string>{".other.part-999999"});
+}
+
+TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
+  TempDir dir;
+  const auto message = [](const fs::path& target) {
+    try {
+      RunDirectory run(target);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string policy =
+      ": ehlsim writes only into a new or empty directory or over an earlier ehlsim run; choose "
+      "another --out, or move the files yourself";
+  fs::create_directories(dir / "empty");
+  EXPECT_EQ(message(dir / "empty"), "accepted");
+  fs::create_directories(dir / "user");
+  write_file(dir / "user" / "data.csv", "x");
+  EXPECT_EQ(message(dir / "user"), "--out '" + (dir / "user").string() +
+                                       "' is not empty and holds no ehlsim run.json" + policy);
+  write_earlier_run(dir / "run");
+  fs::create_directories(dir / "run" / "gauss");
+  write_file(dir / "run" / "gauss" / "spike_profiles.csv", "x");  // ehlsim spike --out run/gauss
+  EXPECT_EQ(message(dir / "run"), "accepted");
+  write_file(dir / "run" / "gauss" / "plot.png", "x");
+  EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
+                                      (dir / "run" / "gauss" / "plot.png").string() +
+                                      "', which ehlsim did not write" + policy);
+  write_file(dir / "afile", "x");
+  EXPECT_EQ(message(dir / "afile"),
+            "--out '" + (dir / "afile").string() + "' exists and is not a directory");
+  EXPECT_EQ(message(""), "--out '': the run directory needs a name");
+  EXPECT_EQ(names_in(dir / "user"), std::set<std::string>{"data.csv"});  // untouched
+}
+
+TEST(PathLock, ASecondLockNamesTheHolderAndTheLockGoesWithIt) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  {
+    const PathLock first(target, "run");
+    EXPECT_EQ(first.path(), dir / ".run.lock");
+    try {
+      const PathLock second(target, "run");
+      FAIL() << "a second lock was granted";
+    } catch (const ConfigError& e) {
+      const std::string text = e.what();
+      EXPECT_TRUE(text.starts_with("--out 'run' is in use by another ehlsim run (pid " +
+                                   std::to_string(getpid()) + " on host "))
+          << text;
+      EXPECT_NE(text.find(", started 20"), std::string::npos) << text;
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir / ".run.lock"));
+  const PathLock again(target, "run");  // free again
+}
+
+TEST(Interrupt, ASignalSetsTheFlagInsteadOfEndingTheProcess) {
+  EXPECT_EQ(exit_code_for_signal(SIGINT), 130);
+  EXPECT_EQ(exit_code_for_signal(SIGTERM), 143);
+  EXPECT_EQ(exit_code_for_signal(SIGHUP), 129);
+  EXPECT_EQ(signal_name(SIGHUP), "SIGHUP");
+  {
+    const InterruptGuard guard;
+    const StopOnSignal stop;
+    EXPECT_EQ(InterruptGuard::received(), 0);
+    EXPECT_FALSE(stop.stop_requested());
+    std::raise(SIGTERM);
+    std::raise(SIGINT);  // the first signal is the one reported
+    EXPECT_EQ(InterruptGuard::received(), SIGTERM);
+    EXPECT_TRUE(stop.stop_requested());
+  }
+  const InterruptGuard fresh;
+  EXPECT_EQ(InterruptGuard::received(), 0);
 }
 
 }  // namespace

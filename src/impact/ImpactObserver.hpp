@@ -2,6 +2,7 @@
 // What a running impact simulation reports, step by step, to whoever listens
 // (the command's writers and progress line, a test, a study driver).
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -82,6 +83,19 @@ class ImpactObserver {
   virtual void on_step(const StepRecord& /*record*/, const Field& /*P*/, const Field& /*H*/,
                        bool /*snapshot*/) {}
   virtual void on_finish(const RunSummary& /*summary*/) {}
+  /// Asked after every completed step: true ends the run there (after the
+  /// state sink has had the step's state) with RunInterrupted.
+  [[nodiscard]] virtual bool stop_requested() const { return false; }
+};
+
+/// Thrown by ImpactProblem::run when the observer asked it to stop: the run
+/// ended after the completed step `step` at time `T`.
+class RunInterrupted : public std::runtime_error {
+ public:
+  RunInterrupted(int last_step, double last_T)
+      : std::runtime_error("the run was asked to stop"), step(last_step), T(last_T) {}
+  int step;
+  double T;
 };
 
 }  // namespace ehlsim

@@ -500,13 +500,15 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
     add_to_summary(record);
-    if (state_sink && state_every > 0 && step % state_every == 0 && !end) {
+    const bool stop = !end && observer.stop_requested();  // e.g. SIGINT: checkpoint, then stop
+    if (state_sink && !end && (stop || (state_every > 0 && step % state_every == 0))) {
       // Full-grid fields, whatever grid the solver works on: a checkpoint
       // does not depend on solver.symmetry.
       state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure, summary,
                              unfold(solver->solution(), grid), unfold(P_before, grid),
                              unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
     }
+    if (stop) throw RunInterrupted(step, ball.T);
     if (end) {
       summary.outcome = *end;
       summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);

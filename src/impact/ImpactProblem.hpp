@@ -30,7 +30,8 @@ class ImpactProblem {
   /// a time step diverges, RunFailure (impact/RunGuards.hpp) when a step breaks
   /// a physics guard or the step cap; a step that ends at solver.max_cycles at
   /// most 100 times above solver.tolerance is kept and counted in
-  /// RunSummary::unconverged_steps.
+  /// RunSummary::unconverged_steps.  Throws RunInterrupted after a step when
+  /// observer.stop_requested().
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;
@@ -41,7 +42,8 @@ class ImpactProblem {
   void restart_from(ImpactState state);
 
   /// Hand the state to `sink` at the end of every `every`-th step (0: never),
-  /// e.g. to write a checkpoint.
+  /// and of the step after which the observer asks to stop, e.g. to write a
+  /// checkpoint.
   using StateSink = std::function<void(const ImpactState& state)>;
   void set_state_sink(int every, StateSink sink);
 

@@ -1,6 +1,8 @@
 #include "io/AtomicFile.hpp"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <fstream>
@@ -24,8 +26,20 @@ PartialFile::~PartialFile() {
   }
 }
 
+void sync_path(const std::filesystem::path& path) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || fsync(fd) != 0) {
+    const int error = errno;
+    if (fd >= 0) close(fd);
+    throw std::runtime_error(fmt::format("cannot sync '{}' to disk: {}", path.string(),
+                                         std::generic_category().message(error)));
+  }
+  close(fd);
+}
+
 void PartialFile::commit() {
   if (committed_) return;
+  sync_path(part_path_);
   std::error_code ec;
   std::filesystem::rename(part_path_, final_path_, ec);
   if (ec) {

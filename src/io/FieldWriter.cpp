@@ -4,8 +4,10 @@
 #include <netcdf.h>
 
 #include <array>
+#include <cerrno>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -47,6 +49,13 @@ nlohmann::json flatten_parameters(const nlohmann::json& parameters) {
 }
 
 void FieldWriter::check(int status, const char* what) const {
+  // A write that fails inside HDF5 (a full disk) reaches NetCDF as "HDF
+  // error"; errno, cleared before the writing calls, still has the reason.
+  const int error = errno;
+  if (status != NC_NOERR && error != 0 && status != error) {
+    check_netcdf(status, "write", file_.part_path(),
+                 fmt::format("{} ({})", what, std::generic_category().message(error)));
+  }
   check_netcdf(status, "write", file_.part_path(), what);
 }
 
@@ -175,6 +184,7 @@ void FieldWriter::append(double T, std::span<const double> P, std::span<const do
                     H.size(), layout_.x.size(), layout_.y.size()));
   }
   const std::size_t index = snapshots_;
+  errno = 0;
   check(nc_put_var1_double(ncid_, var_time_, &index, &T), "nc_put_var1(time)");
   const std::array<std::size_t, 3> start = {index, 0, 0};
   const std::array<std::size_t, 3> count = {1, layout_.y.size(), layout_.x.size()};
@@ -185,6 +195,7 @@ void FieldWriter::append(double T, std::span<const double> P, std::span<const do
 
 void FieldWriter::commit() {
   if (ncid_ < 0) return;
+  errno = 0;
   const int status = nc_close(ncid_);
   ncid_ = -1;
   check(status, "nc_close");

@@ -1,6 +1,7 @@
 #pragma once
 // Several observers of one run, called in the order given (e.g. spike.csv
 // before RunOutput, whose run.json must be the last file to appear).
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -21,6 +22,10 @@ class ObserverChain final : public ImpactObserver {
   }
   void on_finish(const RunSummary& summary) override {
     for (ImpactObserver* o : observers_) o->on_finish(summary);
+  }
+  [[nodiscard]] bool stop_requested() const override {
+    return std::any_of(observers_.begin(), observers_.end(),
+                       [](const ImpactObserver* o) { return o->stop_requested(); });
   }
 
  private:

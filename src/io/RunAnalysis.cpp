@@ -8,6 +8,7 @@
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/FieldReader.hpp"
+#include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
@@ -100,6 +101,8 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
   ProfileWriter axis(report.files[2], "T,X,P");
   for (std::size_t k = 0; k < fields->times().size(); ++k) {
     const double T = fields->times()[k];
+    // A signal: stop before anything is renamed (the .part files go with the writers).
+    if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
     const SpikeAnalysis analysis =
         analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
     series.append(spike_sample(T, analysis, dry));

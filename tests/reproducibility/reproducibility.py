@@ -102,7 +102,7 @@ def run_and_kill(binary, directory, target):
     does not run ahead of the reading: it is killed wherever it was then,
     typically inside the next step."""
     directory.mkdir(parents=True)
-    checkpoint = directory / "run" / "checkpoint.nc"
+    checkpoint = directory / "run.checkpoint.nc"  # the checkpoint of the run in progress
     process = subprocess.Popen([binary, "impact", "--quiet", *SMALL_CASE, "--out", "run"],
                                cwd=directory, env=dict(os.environ, OMP_NUM_THREADS="1"))
     seen = None
@@ -151,7 +151,7 @@ def kill_restart(binary, work, seed):
     for k, target in enumerate(targets):
         killed, step = killed_run(binary, work / f"killed{k}", target)
         restarted = run(binary, work / f"restarted{k}", SMALL_CASE, 1,
-                        ["--restart", str(killed / "run" / "checkpoint.nc")])
+                        ["--restart", str(killed / "run.checkpoint.nc")])
         ok &= report(f"kill {k + 1}: aimed at step {target}, checkpoint of step {step}, "
                      f"restarted for {rows(restarted)} steps",
                      outputs.compare_restart(full, restarted, step))

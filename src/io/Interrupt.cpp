@@ -1,0 +1,57 @@
+#include "io/Interrupt.hpp"
+
+#include <fmt/format.h>
+
+namespace ehlsim {
+
+namespace {
+
+constexpr int kExitSignalBase = 128;
+
+// The one piece of global state: a signal handler can only talk through it.
+volatile std::sig_atomic_t g_received = 0;
+
+extern "C" void record_signal(int signal_number) {
+  if (g_received == 0) g_received = signal_number;
+}
+
+struct sigaction action_with(void (*handler)(int)) {
+  struct sigaction action {};
+  action.sa_handler = handler;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = 0;  // no SA_RESTART: blocking calls return EINTR
+  return action;
+}
+
+}  // namespace
+
+int exit_code_for_signal(int signal_number) { return kExitSignalBase + signal_number; }
+
+std::string signal_name(int signal_number) {
+  switch (signal_number) {
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGHUP:
+      return "SIGHUP";
+    default:
+      return fmt::format("signal {}", signal_number);
+  }
+}
+
+InterruptGuard::InterruptGuard() {
+  g_received = 0;
+  const struct sigaction stop = action_with(record_signal);
+  const struct sigaction ignore = action_with(SIG_IGN);
+  for (std::size_t k = 0; k < kHandled.size(); ++k)
+    sigaction(kHandled[k], kHandled[k] == SIGXFSZ ? &ignore : &stop, &previous_[k]);
+}
+
+InterruptGuard::~InterruptGuard() {
+  for (std::size_t k = 0; k < kHandled.size(); ++k) sigaction(kHandled[k], &previous_[k], nullptr);
+}
+
+int InterruptGuard::received() { return g_received; }
+
+}  // namespace ehlsim

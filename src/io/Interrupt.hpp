@@ -1,0 +1,45 @@
+#pragma once
+// SIGINT, SIGTERM and SIGHUP as a request to stop: while an InterruptGuard
+// lives, these signals only set a flag that the run checks once per time step
+// (StopOnSignal), so that it can write a checkpoint, remove its partial files
+// and exit with 128 + the signal.  SIGXFSZ (a file beyond ulimit -f) is
+// ignored, so that the write fails with EFBIG and is reported like a full disk.
+#include <array>
+#include <csignal>
+#include <string>
+
+#include "impact/ImpactObserver.hpp"
+
+namespace ehlsim {
+
+/// Exit code of a run stopped by `signal_number`: 128 + the signal, as shells do.
+[[nodiscard]] int exit_code_for_signal(int signal_number);
+
+/// "SIGINT", "SIGTERM", "SIGHUP" (else "signal N").
+[[nodiscard]] std::string signal_name(int signal_number);
+
+class InterruptGuard {
+ public:
+  /// Installs the handlers (without SA_RESTART: a blocking waitpid returns
+  /// EINTR) and clears the flag.
+  InterruptGuard();
+  /// Restores the handlers that were there before.
+  ~InterruptGuard();
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+  /// The first of the signals received since construction, 0 while none.
+  [[nodiscard]] static int received();
+
+ private:
+  static constexpr std::array<int, 4> kHandled = {SIGINT, SIGTERM, SIGHUP, SIGXFSZ};
+  std::array<struct sigaction, kHandled.size()> previous_{};
+};
+
+/// Asks the run to stop at the end of the current step once a signal came.
+class StopOnSignal final : public ImpactObserver {
+ public:
+  [[nodiscard]] bool stop_requested() const override { return InterruptGuard::received() != 0; }
+};
+
+}  // namespace ehlsim

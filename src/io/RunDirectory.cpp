@@ -1,0 +1,253 @@
+#include "io/RunDirectory.hpp"
+
+#include <fcntl.h>
+#include <fmt/chrono.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+
+#include "io/AtomicFile.hpp"
+#include "io/Checkpoint.hpp"
+#include "io/Parameters.hpp"
+
+namespace ehlsim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::string_view kLockSuffix = ".lock";
+constexpr std::string_view kStagingInfix = ".part-";
+constexpr std::string_view kOldInfix = ".old-";
+constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
+constexpr std::size_t kHostNameLength = 256;
+constexpr std::size_t kLockTextLength = 512;
+
+/// Every file name ehlsim writes into a run directory (impact and spike).
+const std::set<std::string, std::less<>>& ehlsim_file_names() {
+  static const std::set<std::string, std::less<>> names = {
+      "timeseries.csv", "spike.csv",           "fields.nc",          "run.json",
+      "checkpoint.nc",  "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv"};
+  return names;
+}
+
+bool is_ehlsim_file_name(std::string name) {
+  const std::string_view part = PartialFile::kSuffix;
+  if (name.size() > part.size() && name.ends_with(part)) name.resize(name.size() - part.size());
+  return ehlsim_file_names().contains(name);
+}
+
+std::string system_message(int error) { return std::generic_category().message(error); }
+
+/// DIR without a trailing separator ("run/" -> "run").
+fs::path without_trailing_separator(fs::path path) {
+  if (!path.empty() && path.filename().empty()) path = path.parent_path();
+  return path;
+}
+
+/// A sibling of `target`: "<parent>/<prefix><name><suffix>".
+fs::path sibling(const fs::path& target, std::string_view prefix, std::string_view suffix) {
+  return target.parent_path() / fmt::format("{}{}{}", prefix, target.filename().string(), suffix);
+}
+
+bool is_ehlsim_run_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return false;
+  const nlohmann::json run = nlohmann::json::parse(in, nullptr, false);
+  return !run.is_discarded() && run.is_object() && run.contains("program") &&
+         run["program"].is_object() && run["program"].value("name", "") == "ehlsim";
+}
+
+/// The first entry below `dir` that is not a file ehlsim writes ("" if none).
+fs::path first_foreign_entry(const fs::path& dir) {
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_symlink()) return entry.path();
+    if (entry.is_directory()) continue;
+    if (!entry.is_regular_file() || !is_ehlsim_file_name(entry.path().filename().string()))
+      return entry.path();
+  }
+  return {};
+}
+
+std::string lock_holder_text() {
+  std::array<char, kHostNameLength> host{};
+  if (gethostname(host.data(), host.size() - 1) != 0) std::strcpy(host.data(), "unknown");
+  const auto now = std::chrono::system_clock::now();
+  return fmt::format("pid {} on host {}, started {:%Y-%m-%d %H:%M:%S} UTC", getpid(), host.data(),
+                     fmt::gmtime(std::chrono::system_clock::to_time_t(now)));
+}
+
+std::string read_lock_holder(int fd) {
+  std::array<char, kLockTextLength> text{};
+  const ssize_t n = pread(fd, text.data(), text.size() - 1, 0);
+  return n > 0 ? std::string(text.data(), static_cast<std::size_t>(n)) : std::string("starting");
+}
+
+/// The staging directories and swapped-out runs that killed runs into `target` left.
+void remove_debris(const fs::path& target) {
+  const std::string staging = fmt::format(".{}{}", target.filename().string(), kStagingInfix);
+  const std::string old = fmt::format(".{}{}", target.filename().string(), kOldInfix);
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(target.parent_path(), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.starts_with(staging) || name.starts_with(old)) fs::remove_all(entry.path(), ec);
+  }
+}
+
+void link_or_copy(const fs::path& from, const fs::path& to) {
+  if (link(from.c_str(), to.c_str()) == 0) return;
+  std::error_code ec;
+  fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
+  if (ec) {
+    throw std::runtime_error(
+        fmt::format("cannot copy '{}' to '{}': {}", from.string(), to.string(), ec.message()));
+  }
+  sync_path(to);
+}
+
+/// Puts `staging` in the place of the existing directory `target`; afterwards
+/// the earlier run is at the returned path.
+fs::path swap_into_place(const fs::path& staging, const fs::path& target) {
+  if (renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0)
+    return staging;
+  if (errno != EINVAL && errno != ENOSYS) {
+    throw std::runtime_error(fmt::format("cannot exchange '{}' with '{}': {}", staging.string(),
+                                         target.string(), system_message(errno)));
+  }
+  // A file system without RENAME_EXCHANGE: two renames, DIR briefly missing.
+  const fs::path old = sibling(target, ".", fmt::format("{}{}", kOldInfix, getpid()));
+  fs::rename(target, old);
+  std::error_code ec;
+  fs::rename(staging, target, ec);
+  if (ec) {
+    fs::rename(old, target);
+    throw std::runtime_error(fmt::format("cannot rename '{}' to '{}': {}", staging.string(),
+                                         target.string(), ec.message()));
+  }
+  return old;
+}
+
+}  // namespace
+
+void check_replaceable_run_directory(const fs::path& dir) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(dir, ec);
+  if (!fs::exists(status)) return;
+  if (!fs::is_directory(status)) {
+    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", dir.string()));
+  }
+  if (fs::is_empty(dir, ec)) return;
+  const char* policy =
+      "ehlsim writes only into a new or empty directory or over an earlier ehlsim run; "
+      "choose another --out, or move the files yourself";
+  if (!is_ehlsim_run_json(dir / "run.json")) {
+    throw ConfigError(fmt::format("--out '{}' is not empty and holds no ehlsim run.json: {}",
+                                  dir.string(), policy));
+  }
+  if (const fs::path foreign = first_foreign_entry(dir); !foreign.empty()) {
+    throw ConfigError(fmt::format("--out '{}' holds '{}', which ehlsim did not write: {}",
+                                  dir.string(), foreign.string(), policy));
+  }
+}
+
+PathLock::PathLock(const fs::path& target, const fs::path& shown)
+    : path_(sibling(target, ".", kLockSuffix)) {
+  for (;;) {
+    fd_ = open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) {
+      throw std::runtime_error(
+          fmt::format("cannot create lock file '{}': {}", path_.string(), system_message(errno)));
+    }
+    if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      const std::string holder = read_lock_holder(fd_);
+      close(fd_);
+      fd_ = -1;
+      throw ConfigError(fmt::format(
+          "--out '{}' is in use by another ehlsim run ({}; lock file '{}'): wait for it to end or "
+          "choose another --out",
+          shown.string(), holder, path_.string()));
+    }
+    // The holder before us may have removed the file after we opened it: the
+    // lock counts only on the file that is still there.
+    struct stat held {};
+    struct stat current {};
+    if (fstat(fd_, &held) == 0 && stat(path_.c_str(), &current) == 0 &&
+        held.st_ino == current.st_ino && held.st_dev == current.st_dev)
+      break;
+    close(fd_);
+  }
+  const std::string text = lock_holder_text();
+  // Should this fail, only the message of a second run lacks the holder.
+  if (ftruncate(fd_, 0) == 0) (void)!pwrite(fd_, text.data(), text.size(), 0);
+}
+
+PathLock::~PathLock() {
+  if (fd_ < 0) return;
+  unlink(path_.c_str());  // while still locked: see the stat check above
+  close(fd_);
+}
+
+fs::path resolve_run_directory(const fs::path& target) {
+  if (target.empty()) throw ConfigError("--out '': the run directory needs a name", "--out");
+  const fs::path absolute = without_trailing_separator(fs::absolute(target).lexically_normal());
+  if (absolute.filename().empty() || absolute.filename() == "..") {
+    throw ConfigError(
+        fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
+  }
+  fs::create_directories(absolute.parent_path());
+  return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
+}
+
+RunDirectory::RunDirectory(const fs::path& target)
+    : target_(without_trailing_separator(target)),
+      resolved_(resolve_run_directory(target)),
+      lock_(resolved_, target_),
+      staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
+  check_replaceable_run_directory(target_);
+  remove_debris(resolved_);
+  fs::create_directory(staging_);
+}
+
+RunDirectory::~RunDirectory() {
+  if (published_) return;
+  std::error_code ec;  // nothing to report from a destructor
+  fs::remove_all(staging_, ec);
+}
+
+fs::path RunDirectory::checkpoint() const { return sibling(target_, "", kCheckpointSuffix); }
+
+void RunDirectory::publish(bool with_checkpoint) {
+  if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);
+  sync_path(staging_);
+  try {
+    check_replaceable_run_directory(target_);  // a file put there during the run stays
+  } catch (const ConfigError& e) {
+    throw std::runtime_error(e.what());
+  }
+  fs::path old;
+  if (fs::exists(resolved_)) {
+    old = swap_into_place(staging_, resolved_);
+  } else {
+    fs::rename(staging_, resolved_);
+  }
+  published_ = true;
+  sync_path(resolved_.parent_path());
+  std::error_code ec;  // leftovers are the next run's debris, not this run's failure
+  if (!old.empty()) fs::remove_all(old, ec);
+  fs::remove(checkpoint(), ec);
+}
+
+}  // namespace ehlsim

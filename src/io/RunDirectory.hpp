@@ -1,0 +1,86 @@
+#pragma once
+// A run directory written as a transaction (docs/usage.md, "What ehlsim
+// guarantees about its outputs"): a reader of DIR sees the earlier complete
+// run or the new complete run, never a mix and never a partial one.
+//
+//   DIR/                  the last complete run (replaced as a whole)
+//   .DIR.lock             flock(2) of the run that writes DIR (pid, host,
+//                         start time inside); released when the process dies
+//   .DIR.part-<pid>/      the new run while it is written (staging)
+//   DIR.checkpoint.nc     the checkpoint of the run in progress: kept when it
+//                         fails or is interrupted, for --restart; removed when
+//                         a run into DIR completes
+//
+// publish() fsyncs the staging directory and swaps it with DIR atomically
+// (renameat2 RENAME_EXCHANGE; a plain rename when DIR does not exist), then
+// removes the earlier run.  A RunDirectory destroyed unpublished removes its
+// staging directory.  Debris of a killed run (staging, swapped-out old runs)
+// is removed by the next run into DIR, which holds the lock.
+#include <filesystem>
+#include <string>
+
+namespace ehlsim {
+
+/// An exclusive lock on a target path, held until destruction or the death
+/// of the process: "<parent>/.<name>.lock".
+class PathLock {
+ public:
+  /// Throws ConfigError naming the holder (pid, host, start time) when
+  /// another process holds the lock, std::runtime_error when the lock file
+  /// cannot be created.  `target` as resolve_run_directory gives it, `shown`
+  /// as the user named it.
+  PathLock(const std::filesystem::path& target, const std::filesystem::path& shown);
+  ~PathLock();
+  PathLock(const PathLock&) = delete;
+  PathLock& operator=(const PathLock&) = delete;
+
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+};
+
+class RunDirectory {
+ public:
+  /// Locks `target`, checks that it is missing, empty or an earlier ehlsim run
+  /// (else ConfigError naming the first foreign file), removes the debris of
+  /// killed runs and creates a fresh staging directory.
+  explicit RunDirectory(const std::filesystem::path& target);
+  ~RunDirectory();
+  RunDirectory(const RunDirectory&) = delete;
+  RunDirectory& operator=(const RunDirectory&) = delete;
+
+  /// DIR as the user named it (for messages).
+  [[nodiscard]] const std::filesystem::path& target() const { return target_; }
+  /// Where the files of the new run are written.
+  [[nodiscard]] const std::filesystem::path& staging() const { return staging_; }
+  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints.
+  [[nodiscard]] std::filesystem::path checkpoint() const;
+
+  /// Makes the staged run DIR (with `checkpoint()` as DIR/checkpoint.nc when
+  /// `with_checkpoint`).  Throws std::runtime_error when a file cannot be
+  /// synced or renamed; DIR then still holds the earlier run.
+  void publish(bool with_checkpoint);
+  [[nodiscard]] bool published() const { return published_; }
+
+ private:
+  std::filesystem::path target_;    ///< as given
+  std::filesystem::path resolved_;  ///< absolute, symlinks of the parents resolved
+  PathLock lock_;
+  std::filesystem::path staging_;
+  bool published_ = false;
+};
+
+/// `target` absolute, without a trailing separator, with the symbolic links of
+/// its parent resolved (one spelling per directory, for the lock); creates
+/// the parent.  Throws ConfigError for "" or a path without a name.
+[[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
+
+/// Throws ConfigError unless `dir` is missing, an empty directory, or an
+/// earlier ehlsim run: an ehlsim run.json and nothing but files ehlsim writes
+/// (the run's, `ehlsim spike`'s and their ".part" names, also in
+/// subdirectories).
+void check_replaceable_run_directory(const std::filesystem::path& dir);
+
+}  // namespace ehlsim

@@ -1,0 +1,416 @@
+// The life of a run directory, end to end with the real binary (docs/usage.md,
+// "What ehlsim guarantees about its outputs"): a re-run replaces the whole
+// directory, foreign directories are refused, write errors and failures leave
+// the earlier run intact, signals checkpoint and clean up, a restart from that
+// checkpoint gives the uninterrupted run's bits, a busy directory is refused,
+// and `ehlsim study` passes a signal on to its cases.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/mount.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include "io/Checkpoint.hpp"
+#include "support/RunEhlsim.hpp"
+#include "support/TempDir.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using ehlsim::testing::ehlsim;
+using ehlsim::testing::quote;
+using ehlsim::testing::read_file;
+using ehlsim::testing::Result;
+using ehlsim::testing::TempDir;
+
+/// A 33^2 rigid run of a few steps (well under a second).
+const std::string kTiny = "--quiet --set grid.points=33 --set body.elastic=false ";
+/// A 65^2 run of about 420 steps (2-4 s on one thread): long enough to be
+/// signalled after its first step.
+const std::vector<std::string> kLong = {"--set", "grid.points=65", "--set", "time.dT=0.01"};
+constexpr auto kPoll = std::chrono::milliseconds(20);
+constexpr auto kPatience = std::chrono::seconds(120);
+
+Result run_into(const fs::path& dir, const std::string& options) {
+  return ehlsim("impact " + kTiny + options + " --out " + quote(dir.string()));
+}
+
+/// The names in `dir`, sorted.
+std::set<std::string> names_in(const fs::path& dir) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.insert(entry.path().filename());
+  return names;
+}
+
+/// A child process of the binary, its stdout and stderr in files.
+struct Child {
+  pid_t pid = -1;
+  fs::path out;
+  fs::path err;
+};
+
+Child start(const std::vector<std::string>& args, const fs::path& capture) {
+  Child c{-1, capture.string() + ".out", capture.string() + ".err"};
+  std::vector<std::string> argv_strings = {EHLSIM_BINARY};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  c.pid = fork();
+  if (c.pid == 0) {
+    const int out = open(c.out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = open(c.err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(out, STDOUT_FILENO);
+    dup2(err, STDERR_FILENO);
+    execv(EHLSIM_BINARY, argv.data());
+    _exit(127);
+  }
+  return c;
+}
+
+/// Waits until `file` contains `text` (false after kPatience).
+bool wait_for_text(const fs::path& file, const std::string& text) {
+  const auto until = std::chrono::steady_clock::now() + kPatience;
+  while (read_file(file).find(text) == std::string::npos) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(kPoll);
+  }
+  return true;
+}
+
+int exit_code_of(const Child& c) {
+  int status = 0;
+  waitpid(c.pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+/// Starts a long run into `dir`, waits for its first step, sends `signal`.
+Result interrupted_run(const fs::path& dir, int signal, std::vector<std::string> extra = {}) {
+  std::vector<std::string> args = {"impact", "--out", dir.string()};
+  args.insert(args.end(), kLong.begin(), kLong.end());
+  args.insert(args.end(), extra.begin(), extra.end());
+  const Child c = start(args, dir.string() + "-capture");
+  EXPECT_TRUE(wait_for_text(c.err, "step 1 "));
+  kill(c.pid, signal);
+  Result r;
+  r.exit_code = exit_code_of(c);
+  r.out = read_file(c.out);
+  r.err = read_file(c.err);
+  return r;
+}
+
+/// The last line of `text`.
+std::string last_line(const std::string& text) {
+  const std::size_t end = text.find_last_not_of('\n');
+  const std::size_t start = text.rfind('\n', end);
+  return text.substr(start == std::string::npos ? 0 : start + 1, end - start);
+}
+
+/// The siblings of `dir` that a run into it may leave: staging, old runs, lock.
+std::vector<std::string> debris_beside(const fs::path& dir) {
+  std::vector<std::string> debris;
+  std::string hidden = ".";
+  hidden.append(dir.filename().string()).append(".");
+  for (const auto& entry : fs::directory_iterator(dir.parent_path())) {
+    const std::string name = entry.path().filename();
+    if (name.starts_with(hidden)) debris.push_back(name);
+  }
+  return debris;
+}
+
+TEST(Lifecycle, ARerunReplacesTheWholeDirectory) {
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  ASSERT_EQ(ehlsim("spike --quiet " + quote(run.string())).exit_code, 0);
+  ASSERT_TRUE(fs::exists(run / "checkpoint.nc"));
+  ASSERT_TRUE(fs::exists(run / "spike_snapshots.csv"));
+
+  const Result r = run_into(run, "--set time.T_end=0.2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Only the new run's files: no checkpoint.nc or spike_*.csv of the earlier one.
+  EXPECT_EQ(names_in(run),
+            (std::set<std::string>{"fields.nc", "run.json", "spike.csv", "timeseries.csv"}));
+  const auto json = nlohmann::json::parse(read_file(run / "run.json"));
+  EXPECT_EQ(json["invocation"]["overrides"].back(), "time.T_end=0.2");
+  EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});  // no lock, staging, checkpoint
+}
+
+TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
+  TempDir work;
+  const fs::path mine = work / "mine";
+  fs::create_directories(mine);
+  std::ofstream(mine / "notes.txt") << "keep me\n";
+  Result r = run_into(mine, "");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: --out '" + mine.string() +
+                       "' is not empty and holds no ehlsim run.json: ehlsim writes only into a "
+                       "new or empty directory or over an earlier ehlsim run; choose another "
+                       "--out, or move the files yourself\n");
+  EXPECT_EQ(read_file(mine / "notes.txt"), "keep me\n");
+
+  // An earlier run with a file of the user's in it: refused, naming the file.
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  std::ofstream(run / "notes.txt") << "mine\n";
+  r = run_into(run, "--set time.T_end=0.3");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("holds '" + (run / "notes.txt").string() + "', which ehlsim did not write"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_file(run / "notes.txt"), "mine\n");
+
+  const fs::path file = work / "file";
+  std::ofstream(file) << "x";
+  r = run_into(file, "");
+  EXPECT_EQ(r.err, "ehlsim: error: --out '" + file.string() + "' exists and is not a directory\n");
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+/// The bytes of every file of a run directory.
+std::vector<std::string> contents(const fs::path& dir) {
+  std::vector<std::string> files;
+  for (const std::string& name : names_in(dir)) files.push_back(name + read_file(dir / name));
+  return files;
+}
+
+/// `ehlsim <args>` under `ulimit -f kib` (files beyond it fail with EFBIG).
+Result with_file_size_limit(int kib, const std::string& args) {
+  const TempDir capture("limit");
+  const std::string command = "ulimit -f " + std::to_string(kib) + "; exec " +
+                              quote(EHLSIM_BINARY) + " " + args + " > " +
+                              quote((capture / "out").string()) + " 2> " +
+                              quote((capture / "err").string()) + " < /dev/null";
+  const int status = std::system(("sh -c " + quote(command)).c_str());
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_file(capture / "out");
+  r.err = read_file(capture / "err");
+  return r;
+}
+
+/// A write that fails (ulimit -f: EFBIG, as a full disk gives ENOSPC) ends
+/// with exit 1 and one line; the earlier run stays as it was.
+TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  constexpr int kFileLimitKiB = 16;  // below the size of one 65^2 snapshot file
+  const Result r = with_file_size_limit(
+      kFileLimitKiB, "impact --quiet --set grid.points=65 --set output.snapshot_every=1 --out " +
+                         quote(run.string()));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_TRUE(r.err.starts_with("ehlsim: error: cannot write '")) << r.err;
+  EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
+  EXPECT_EQ(contents(run), before);
+  EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});
+}
+
+/// A tmpfs of a few hundred kB, unmounted at the end (mount needs root).
+class SmallTmpfs {
+ public:
+  explicit SmallTmpfs(const fs::path& at) : at_(at) {
+    fs::create_directories(at_);
+    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", 0, "size=200k") == 0;
+  }
+  ~SmallTmpfs() {
+    if (mounted_) umount(at_.c_str());
+  }
+  SmallTmpfs(const SmallTmpfs&) = delete;
+  SmallTmpfs& operator=(const SmallTmpfs&) = delete;
+  [[nodiscard]] bool mounted() const { return mounted_; }
+
+ private:
+  fs::path at_;
+  bool mounted_ = false;
+};
+
+TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {
+  TempDir work;
+  const SmallTmpfs disk(work / "disk");
+  if (!disk.mounted()) GTEST_SKIP() << "mount -t tmpfs is not permitted here";
+  const fs::path run = work / "disk" / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const Result r =
+      ehlsim("impact --quiet --set grid.points=65 --set output.snapshot_every=1 --out " +
+             quote(run.string()));
+  EXPECT_EQ(r.exit_code, 1);  // not 139 (HDF5's exit handler)
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
+  EXPECT_EQ(contents(run), before);
+  EXPECT_EQ(names_in(work / "disk"), std::set<std::string>{"run"});
+}
+
+/// A failed run keeps its last checkpoint (named in the message) and does not
+/// touch the earlier run's checkpoint.nc.
+TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const Result r = run_into(run, "--set output.checkpoint_every=2 --set time.max_steps=5");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("no lift-off after 5 steps"), std::string::npos) << r.err;
+  const fs::path kept = work / "run.checkpoint.nc";
+  EXPECT_NE(r.err.find("; resume from the checkpoint of step 4 with: "), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--restart " + kept.string()), std::string::npos) << r.err;
+  EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 4);
+  EXPECT_EQ(contents(run), before);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+}
+
+/// The rows of timeseries.csv (without the header).
+std::vector<std::string> rows(const fs::path& run) {
+  std::vector<std::string> out;
+  std::istringstream in(read_file(run / "timeseries.csv"));
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) out.push_back(line);
+  return out;
+}
+
+TEST(Lifecycle, SigintCheckpointsAndTheResumedRunHasTheSameBits) {
+  TempDir work;
+  const fs::path full = work / "full";
+  const Result whole = ehlsim("impact --quiet --set grid.points=65 --set time.dT=0.01 --out " +
+                              quote(full.string()));
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+
+  const fs::path run = work / "run";
+  const Result r = interrupted_run(run, SIGINT);
+  ASSERT_EQ(r.exit_code, 130) << r.err;
+  const std::string line = last_line(r.err);
+  const std::regex message(
+      "ehlsim: interrupted by SIGINT after step ([0-9]+) \\(T = [0-9.]+\\); resume with: (.*)");
+  std::smatch match;
+  ASSERT_TRUE(std::regex_match(line, match, message)) << line;
+  const fs::path kept = work / "run.checkpoint.nc";
+  EXPECT_EQ(match[2].str(), std::string(EHLSIM_BINARY) +
+                                " impact --set grid.points=65 --set time.dT=0.01 --out " +
+                                run.string() + " --restart " + kept.string());
+  EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, std::stoi(match[1].str()));
+  // Nothing else: no run directory (there was none before), no staging, no lock.
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"full", "run-capture.err",
+                                                          "run-capture.out", "run.checkpoint.nc"}));
+
+  // The resume command as printed, in a shell.
+  const int status = std::system((match[2].str() + " --quiet > /dev/null").c_str());
+  ASSERT_EQ(WEXITSTATUS(status), 0);
+  const auto results = [](const fs::path& dir) {
+    return nlohmann::json::parse(read_file(dir / "run.json"))["results"];
+  };
+  EXPECT_EQ(results(run), results(full));
+  const std::vector<std::string> tail = rows(run);
+  const std::vector<std::string> all = rows(full);
+  ASSERT_EQ(tail.size() + std::stoul(match[1].str()), all.size());
+  EXPECT_TRUE(std::equal(tail.begin(), tail.end(), all.end() - static_cast<long>(tail.size())));
+  EXPECT_FALSE(fs::exists(kept));  // the completed run supersedes it
+}
+
+TEST(Lifecycle, SigtermAndSighupLeaveTheEarlierRunAndACheckpoint) {
+  for (const auto& [signal, name, code] :
+       {std::tuple{SIGTERM, "SIGTERM", 143}, std::tuple{SIGHUP, "SIGHUP", 129}}) {
+    TempDir work(name);
+    const fs::path run = work / "run";
+    ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+    const std::vector<std::string> before = contents(run);
+    const Result r = interrupted_run(run, signal, {"--set", "output.checkpoint_every=50"});
+    EXPECT_EQ(r.exit_code, code) << r.err;
+    EXPECT_TRUE(last_line(r.err).starts_with(std::string("ehlsim: interrupted by ") + name +
+                                             " after step "))
+        << r.err;
+    EXPECT_EQ(contents(run), before);
+    EXPECT_EQ(
+        names_in(work.path()),
+        (std::set<std::string>{"run", "run-capture.err", "run-capture.out", "run.checkpoint.nc"}));
+  }
+}
+
+TEST(Lifecycle, ASecondRunIntoABusyDirectoryExitsAtOnce) {
+  TempDir work;
+  const fs::path run = work / "run";
+  std::vector<std::string> args = {"impact", "--out", run.string()};
+  args.insert(args.end(), kLong.begin(), kLong.end());
+  const Child first = start(args, work / "first");
+  ASSERT_TRUE(wait_for_text(first.err, "step 1 "));
+  const auto start_time = std::chrono::steady_clock::now();
+  const Result second = run_into(run, "");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  EXPECT_EQ(second.exit_code, 2);
+  EXPECT_TRUE(second.err.starts_with("ehlsim: error: --out '" + run.string() +
+                                     "' is in use by another ehlsim run (pid " +
+                                     std::to_string(first.pid) + " on host "))
+      << second.err;
+  EXPECT_LT(seconds, 10.0);  // at once, not after the first run
+  // Nor does an analysis write there meanwhile.
+  const Result spike = ehlsim("spike " + quote(run.string()));
+  EXPECT_EQ(spike.exit_code, 2);
+  EXPECT_NE(spike.err.find("is in use by another ehlsim run (pid " + std::to_string(first.pid)),
+            std::string::npos)
+      << spike.err;
+  EXPECT_EQ(exit_code_of(first), 0) << read_file(first.err);  // undisturbed
+  EXPECT_TRUE(fs::exists(run / "run.json"));
+
+  // kill -9 leaves no lock that stops the next run, and its debris goes.
+  const Child killed = start(args, work / "killed");
+  ASSERT_TRUE(wait_for_text(killed.err, "step 1 "));
+  kill(killed.pid, SIGKILL);
+  EXPECT_EQ(exit_code_of(killed), 128 + SIGKILL);
+  EXPECT_FALSE(debris_beside(run).empty());
+  const Result after = run_into(run, "--set time.T_end=0.2");
+  EXPECT_EQ(after.exit_code, 0) << after.err;
+  EXPECT_TRUE(debris_beside(run).empty());
+}
+
+TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
+  TempDir work;
+  const fs::path study = work / "study";
+  const Child c =
+      start({"study", "--grid", "65", "--no-plots", "--jobs", "2", "--out", study.string()},
+            work / "study");
+  ASSERT_TRUE(wait_for_text(c.out, "started  M = 50"));
+  // Both cases have done a step: their checkpoint is then of a step.
+  ASSERT_TRUE(wait_for_text(study / "logs" / "M50.log", "step 1 "));
+  ASSERT_TRUE(wait_for_text(study / "logs" / "M100.log", "step 1 "));
+  kill(c.pid, SIGTERM);
+  EXPECT_EQ(exit_code_of(c), 143);
+  const std::string out = read_file(c.out);
+  EXPECT_EQ(last_line(read_file(c.err)),
+            "ehlsim: interrupted by SIGTERM: the study stopped M100, M50 (their logs say how to "
+            "resume each); no study.json was written");
+  EXPECT_FALSE(fs::exists(study / "study.json"));
+  // The cases were waited for: they ended with the signal, each with its checkpoint.
+  const std::regex started("pid ([0-9]+)");
+  for (auto it = std::sregex_iterator(out.begin(), out.end(), started);
+       it != std::sregex_iterator(); ++it) {
+    EXPECT_FALSE(fs::exists(fs::path("/proc") / (*it)[1].str()))
+        << "pid " << (*it)[1] << " runs on";
+  }
+  EXPECT_NE(out.find("FAILED   M = 100"), std::string::npos) << out;
+  EXPECT_NE(out.find("(exit 143): ehlsim: interrupted by SIGTERM"), std::string::npos) << out;
+  EXPECT_TRUE(fs::exists(study / "M100.checkpoint.nc"));
+  EXPECT_TRUE(fs::exists(study / "M50.checkpoint.nc"));
+}
+
+}  // namespace
