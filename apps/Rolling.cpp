@@ -7,9 +7,12 @@
 #include <optional>
 
 #include "Study.hpp"
+#include "impact/ImpactObserver.hpp"
+#include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 #include "io/RollingOutput.hpp"
 #include "io/RollingParameters.hpp"
+#include "io/RunDirectory.hpp"
 #include "rolling/FilmFormula.hpp"
 #include "rolling/RollingProblem.hpp"
 
@@ -49,6 +52,7 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
 }  // namespace
 
 int run_rolling(const RollingOptions& options) {
+  const InterruptGuard interrupts;
   RollingConfig config;
   try {
     std::optional<std::filesystem::path> file;
@@ -58,12 +62,15 @@ int run_rolling(const RollingOptions& options) {
     cli::print_error(e.what());
     return cli::kExitBadInput;
   }
+  // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
+  RunDirectory run_dir(options.out_dir);
   if (!options.quiet) print_rolling_case(config, options.out_dir);
   const auto start = std::chrono::steady_clock::now();
   RollingResult result;
   try {
     RollingProblem problem(config);
     result = problem.run([&](const RollingCycle& c) {
+      if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
       if (options.quiet) return;
       fmt::print("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}\n", c.points,
                  c.cycle, c.residual, c.force_error, c.Hc);
@@ -71,11 +78,17 @@ int run_rolling(const RollingOptions& options) {
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());
     return cli::kExitFailure;
+  } catch (const RunInterrupted&) {
+    const int signal = InterruptGuard::received();
+    std::fprintf(stderr, "ehlsim: interrupted by %s; nothing was written to %s\n",
+                 signal_name(signal).c_str(), options.out_dir.c_str());
+    return exit_code_for_signal(signal);
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   nlohmann::json invocation = {{"config", options.config_file}, {"overrides", options.overrides}};
-  write_rolling_run(options.out_dir, config, result, invocation, wall);
+  write_rolling_run(run_dir.staging(), config, result, invocation, wall);
+  run_dir.publish(false);
   if (!options.quiet) {
     fmt::print(
         "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "

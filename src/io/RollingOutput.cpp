@@ -65,7 +65,6 @@ nlohmann::json rolling_results_json(const RollingConfig& c, const RollingResult&
 void write_rolling_run(const std::filesystem::path& dir, const RollingConfig& config,
                        const RollingResult& result, const nlohmann::json& invocation,
                        double wall_seconds) {
-  std::filesystem::create_directories(dir);
   const nlohmann::json parameters = rolling_parameters_json(config);
   FieldLayout layout = FieldLayout::impact(result.grid);
   layout.title = "ehlsim: steady rolling EHL point contact (pressure and film thickness)";

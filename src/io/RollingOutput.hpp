@@ -8,8 +8,9 @@
 //   convergence.csv    residual, force error, Hc and H0 after every cycle
 //   run.json           parameters, results (Hc, Hm, Hc_moes, ...), wall time
 //
-// Each file is written as "<name>.part" and renamed when complete; run.json
-// last, so its presence marks a complete run.
+// The files are written into the staging directory of a RunDirectory
+// (io/RunDirectory.hpp), which the caller publishes: the run directory is a
+// transaction, as the impact's is.
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -22,8 +23,8 @@ namespace ehlsim {
 [[nodiscard]] nlohmann::json rolling_results_json(const RollingConfig& config,
                                                   const RollingResult& result);
 
-/// Writes the whole run directory (created if missing).  Throws
-/// std::runtime_error / std::filesystem::filesystem_error.
+/// Writes every file of the run into `directory` (the staging directory).
+/// Throws std::runtime_error / std::filesystem::filesystem_error.
 void write_rolling_run(const std::filesystem::path& directory, const RollingConfig& config,
                        const RollingResult& result, const nlohmann::json& invocation,
                        double wall_seconds);

@@ -36,11 +36,12 @@ constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
 constexpr std::size_t kHostNameLength = 256;
 constexpr std::size_t kLockTextLength = 512;
 
-/// Every file name ehlsim writes into a run directory (impact and spike).
+/// Every file name ehlsim writes into a run directory (impact, spike, rolling).
 const std::set<std::string, std::less<>>& ehlsim_file_names() {
   static const std::set<std::string, std::less<>> names = {
       "timeseries.csv", "spike.csv",           "fields.nc",          "run.json",
-      "checkpoint.nc",  "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv"};
+      "checkpoint.nc",  "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv",
+      "profile_x.csv",  "profile_y.csv",       "convergence.csv"};
   return names;
 }
 
