@@ -58,7 +58,7 @@ def main():
             ax.plot(profile["X"], profile["H"], "-", label=f"rolling: H(X, 0), {args.rolling_grid}$^2$")
             ax.plot(shifted, series["h_center"], "--",
                     label=f"impact: $h_c$(T - {T_peak:.2f}), {args.impact_grid}$^2$")
-            ax.set_xlim(-3, 1.5)
+            ax.set_xlim(-3, 2.2)
             ax.set_ylim(0, 1.5)
             ax.set_xlabel("X (rolling)  |  T - T(max force) (impact)")
             ax.set_ylabel("H")
