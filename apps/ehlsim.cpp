@@ -25,6 +25,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "Study.hpp"
@@ -67,6 +68,7 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
                   "TOML file with the case (default: the paper's case M = 100, L = 10)");
   cmd->add_option("-o,--out", options.out_dir,
                   "run directory for timeseries.csv, fields.nc and run.json (created if missing)")
+      ->check(cli::not_empty("a directory"))
       ->capture_default_str();
   cmd->add_option("--set", options.overrides,
                   "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
@@ -76,6 +78,7 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
   cmd->add_option("--restart", options.restart_file,
                   "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
                   "solver.*, output.*, spike.*, time.T_end and time.max_steps may differ")
+      ->check(cli::not_empty("a checkpoint file"))
       ->type_name("CHECKPOINT");
   cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
   cmd->footer("\n" + describe_parameters());
@@ -276,6 +279,15 @@ int run(int argc, char** argv) {
   StudyOptions study;
   CLI::App* study_cmd = add_study_command(app, study);
 
+  // CLI11 says only "A subcommand is required" for a misspelt one.
+  const auto is_command = [&](const CLI::App* command) { return command->check_name(argv[1]); };
+  if (argc > 1 && argv[1][0] != '-' && std::as_const(app).get_subcommands(is_command).empty()) {
+    print_error(
+        fmt::format("unknown command '{}' (commands: impact, spike, study; try ehlsim "
+                    "--help)",
+                    echo_input(argv[1])));
+    return kExitBadInput;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

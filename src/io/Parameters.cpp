@@ -27,6 +27,16 @@ namespace ehlsim {
 ConfigError::ConfigError(const std::string& message, std::string key)
     : std::runtime_error(message), key_(std::move(key)) {}
 
+std::string echo_input(std::string_view text) {
+  if (text.size() <= kEchoMaxChars) return std::string(text);
+  std::size_t cut = kEchoMaxChars;
+  // Not inside a UTF-8 sequence: continuation bytes are 10xxxxxx.
+  constexpr unsigned char kContinuationMask = 0xC0, kContinuation = 0x80;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & kContinuationMask) == kContinuation)
+    --cut;
+  return fmt::format("{}... ({} bytes)", text.substr(0, cut), text.size());
+}
+
 // ---------------------------------------------------------------------------
 // Enumerations <-> TOML strings
 // ---------------------------------------------------------------------------
@@ -551,7 +561,9 @@ struct Given {
 
 [[noreturn]] void fail_value(const std::string& key, const std::string& text,
                              const std::string& problem, const std::string& origin) {
-  throw ConfigError(fmt::format("{} = {}: {}{}", key, text, problem, origin_suffix(origin)), key);
+  throw ConfigError(fmt::format("{} = {}: {}{}", echo_input(key), echo_input(text), problem,
+                                origin_suffix(origin)),
+                    key);
 }
 
 std::optional<double> number_of(const toml::node& node) {
@@ -692,8 +704,8 @@ void apply_override(toml::table& root, const std::string& assignment) {
   const std::string key =
       eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
   if (key.empty()) {
-    throw ConfigError(
-        fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20", assignment));
+    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20",
+                                  echo_input(assignment)));
   }
   const std::string value = trim(std::string_view(assignment).substr(eq + 1));
 
@@ -742,19 +754,21 @@ GivenMap collect(const toml::table& root) {
         const auto first = table->cbegin();
         const std::string key = section + "." + std::string(first->first.str());
         throw ConfigError(
-            fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}", key,
-                        section, section_list(), origin_suffix(node_origin(first->second))),
+            fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}",
+                        echo_input(key), echo_input(section), section_list(),
+                        origin_suffix(node_origin(first->second))),
             key);
       }
       if (table) {
-        throw ConfigError(fmt::format("unknown section '[{}]' (known sections: {}){}", section,
-                                      section_list(), origin_suffix(node_origin(section_node))),
-                          section);
+        throw ConfigError(
+            fmt::format("unknown section '[{}]' (known sections: {}){}", echo_input(section),
+                        section_list(), origin_suffix(node_origin(section_node))),
+            section);
       }
       throw ConfigError(
           fmt::format(
               "unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
-              section, section_list(), origin_suffix(node_origin(section_node))),
+              echo_input(section), section_list(), origin_suffix(node_origin(section_node))),
           section);
     }
     if (!table) {
@@ -764,9 +778,10 @@ GivenMap collect(const toml::table& root) {
     for (auto&& [name, node] : *table) {
       const std::string key = section + "." + std::string(name.str());
       if (!find_parameter(key)) {
-        throw ConfigError(fmt::format("unknown key '{}' (known keys in [{}]: {}){}", key, section,
-                                      keys_in_section(section), origin_suffix(node_origin(node))),
-                          key);
+        throw ConfigError(
+            fmt::format("unknown key '{}' (known keys in [{}]: {}){}", echo_input(key), section,
+                        keys_in_section(section), origin_suffix(node_origin(node))),
+            key);
       }
     }
   }

@@ -39,6 +39,12 @@ class ConfigError : public std::runtime_error {
   std::string key_;
 };
 
+/// A user's input (a value, a key, an option's argument) as an error message
+/// echoes it: in full up to kEchoMaxChars characters, else its start and
+/// "... (N bytes)", so that a runaway value does not flood the terminal.
+inline constexpr std::size_t kEchoMaxChars = 80;
+[[nodiscard]] std::string echo_input(std::string_view text);
+
 enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
 
 /// A parameter value as the registry stores it (defaults, validated inputs).
