@@ -176,7 +176,7 @@ int run_impact(const ImpactOptions& options) {
     try {
       checkpoint = read_checkpoint(options.restart_file);
     } catch (const std::runtime_error& e) {
-      print_error(fmt::format("--restart: {}", e.what()));
+      print_error(e.what());  // names the file, and the field of a damaged one
       return kExitBadInput;
     }
     check_restart_compatible(checkpoint->parameters, parameters, options.restart_file);
