@@ -299,7 +299,7 @@ std::vector<ParameterSpec> build_registry() {
     r.push_back(std::move(t_end));
   }
   {
-    ParameterSpec cap = integer("time.max_steps", 0, at_least(1), none, false,
+    ParameterSpec cap = integer("time.max_steps", 0, at_least(1), at_most(kMaxTimeSteps), false,
                                 "a run until lift-off that has not ended (lift-off or at rest) "
                                 "after this many steps fails (exit 1)");
     cap.default_value.reset();
@@ -996,6 +996,31 @@ void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
                       largest, c.Delta0));
 }
 
+/// A run of more than kMaxTimeSteps steps is refused before it starts: a
+/// start far away or slow needs billions of steps (and an int overflows).
+void check_step_count(const Inputs& in, const ImpactConfig& c) {
+  const double dT = effective_time_step(c);
+  const double limit = kMaxTimeSteps;
+  if (std::isfinite(c.T_end)) {
+    const double steps = std::ceil(c.T_end / dT);
+    if (steps <= limit) return;
+    in.fail("time.T_end",
+            fmt::format("needs {:.3g} time steps of time.dT = {:.4g}; at most {} are allowed",
+                        steps, dT, kMaxTimeSteps));
+  }
+  if (in.has("time.max_steps")) return;  // within the registry's range
+  const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
+  if (steps <= limit) return;
+  const bool slow = in.has("time.V0") || !in.has("time.Delta0");
+  const std::string start = slow ? fmt::format("from time.Delta0 = {:g}", c.Delta0)
+                                 : fmt::format("at time.V0 = {:g}", c.V0);
+  in.fail(slow ? "time.V0" : "time.Delta0",
+          fmt::format("a run until lift-off {} may need {:.3g} time steps of dT = {:.4g} (the "
+                      "default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
+                      "are allowed: start closer or faster, or set time.T_end or time.max_steps",
+                      start, steps, dT, kMaxTimeSteps));
+}
+
 void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.elastic = in.get<bool>("body.elastic");
   c.grid_points = in.integer("grid.points");
@@ -1032,6 +1057,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
                                                                        : DeformationMethod::Fft;
 
   check_undeformed_gap(in, c);
+  check_step_count(in, c);
   if (c.coarsest_points > c.grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", c.grid_points));
   }

@@ -86,6 +86,10 @@ struct SectionSpec {
 /// Grid sizes the solver accepts: 2^k + 1 between these bounds.
 inline constexpr int kMinGridPoints = 9;
 inline constexpr int kMaxGridPoints = 4097;
+/// Most time steps a run may take: time.max_steps, time.T_end / time.dT, and
+/// the default step cap of a run until lift-off (a start far away or slow,
+/// e.g. time.V0 = 1e-9, would need billions of steps).
+inline constexpr int kMaxTimeSteps = 10'000'000;
 /// Smallest coarsest multigrid level.
 inline constexpr int kMinCoarsestPoints = 5;
 
