@@ -33,6 +33,7 @@
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "io/Checkpoint.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
@@ -170,6 +171,14 @@ int run_impact(const ImpactOptions& options) {
     print_error(e.what());
     return kExitBadInput;
   }
+  // Before anything big is allocated or the run directory is made.
+  MemoryBudget memory;
+  try {
+    memory = check_run_memory(config, available_memory_mb());
+  } catch (const ConfigError& e) {
+    print_error(e.what());
+    return kExitBadInput;
+  }
   const nlohmann::json parameters = effective_parameters_json(config);
   std::optional<Checkpoint> checkpoint;
   if (!options.restart_file.empty()) {
@@ -192,7 +201,8 @@ int run_impact(const ImpactOptions& options) {
       {"config_file",
        options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
       {"overrides", options.overrides},
-      {"out", options.out_dir}};
+      {"out", options.out_dir},
+      {"memory", memory_json(memory)}};
   if (checkpoint)
     invocation["restart"] = {{"checkpoint", options.restart_file},
                              {"step", checkpoint->state.step},

@@ -371,6 +371,10 @@ std::vector<ParameterSpec> build_registry() {
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
+  r.push_back(real("solver.memory_limit_mb", no_default,
+                   "the available memory (MemAvailable of /proc/meminfo)", above(0), none, "MB",
+                   "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
+                   "this, before it starts"));
   add_spike_parameters(r);
   return r;
 }
@@ -1053,6 +1057,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
       in.get<std::string>("solver.line_directions") == kLinesAlternating;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
+  c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
 
@@ -1208,7 +1213,8 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
       {"omega_jacobi", c.relaxation.omega_jacobi},
       {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
       {"symmetry", c.use_symmetry ? kSymmetryAuto : kSymmetryOff},
-      {"face_mean", face_mean_text(c.face_mean)}};
+      {"face_mean", face_mean_text(c.face_mean)},
+      {"memory_limit_mb", c.memory_limit_mb > 0.0 ? json(c.memory_limit_mb) : json(nullptr)}};
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
                 {"max_window_meshes", c.spike.max_window_meshes},
