@@ -26,6 +26,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FieldWriter.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/RunOutput.hpp"
@@ -921,6 +922,79 @@ TEST(Checkpoint, RestartMustContinueTheSameCase) {
       EXPECT_NE(std::string(e.what()).find("checkpoint 'c.nc'"), std::string::npos) << e.what();
     }
   }
+}
+
+// ---------------------------------------------------------------------------
+// Memory guard
+// ---------------------------------------------------------------------------
+
+TEST(MemoryGuard, EstimateGrowsWithTheGridAndTheFullDomain) {
+  const auto estimate = [](const std::vector<std::string>& overrides) {
+    return estimate_run_memory(load_config(std::nullopt, overrides));
+  };
+  const MemoryEstimate small = estimate({"grid.points=129"});
+  const MemoryEstimate large = estimate({"grid.points=513"});
+  const MemoryEstimate full = estimate({"grid.points=513", "solver.symmetry=\"off\""});
+  // The grid-dependent parts grow with the points: 16 times from 129^2 to 513^2 (+-1 level).
+  EXPECT_NEAR(large.grid_mb / small.grid_mb, 16.0, 0.5);
+  EXPECT_NEAR(large.solver_mb / small.solver_mb, 16.0, 0.5);
+  // The full domain holds 4 times the points of the quadrant on every level.
+  EXPECT_NEAR(full.solver_mb / large.solver_mb, 4.0, 0.1);
+  EXPECT_EQ(full.grid_mb, large.grid_mb);
+  // The measured peaks of docs/performance.md are below the estimate.
+  EXPECT_GT(small.total_mb(), 25.6);
+  EXPECT_GT(large.total_mb(), 60.0);
+  EXPECT_GT(full.total_mb(), 107.4);
+  EXPECT_GT(estimate({"grid.points=4097"}).total_mb(), 2000.0);
+  const MemoryEstimate with_checkpoints =
+      estimate({"grid.points=513", "output.checkpoint_every=5"});
+  EXPECT_GT(with_checkpoints.grid_mb, large.grid_mb);
+}
+
+TEST(MemoryGuard, RefusesWhatExceedsTheLimitNamingTheKeys) {
+  const ImpactConfig huge =
+      load_config(std::nullopt, {"grid.points=4097", "solver.memory_limit_mb=100"});
+  try {
+    (void)check_run_memory(huge, 1e9);
+    FAIL() << "expected a refusal";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "grid.points");
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind("grid.points = 4097: the run needs about ", 0), 0u) << message;
+    EXPECT_NE(message.find("MB of memory (estimate), more than the limit solver.memory_limit_mb = "
+                           "100: use fewer grid.points, or raise solver.memory_limit_mb"),
+              std::string::npos)
+        << message;
+  }
+  // Without a given limit, the machine's available memory is the limit.
+  const ImpactConfig plain = load_config(std::nullopt, {"grid.points=4097"});
+  try {
+    (void)check_run_memory(plain, 500.0);
+    FAIL() << "expected a refusal";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the 500 MB this machine has available "
+                                         "(MemAvailable in /proc/meminfo; solver.memory_limit_mb "
+                                         "sets another limit)"),
+              std::string::npos)
+        << e.what();
+  }
+  const MemoryBudget fits = check_run_memory(plain, 1e6);
+  EXPECT_EQ(fits.limit_source, "MemAvailable");
+  EXPECT_EQ(fits.limit_mb, 1e6);
+  // A given limit replaces the available memory, in both directions.
+  const ImpactConfig generous =
+      load_config(std::nullopt, {"grid.points=4097", "solver.memory_limit_mb=1e6"});
+  EXPECT_EQ(check_run_memory(generous, 500.0).limit_source, "solver.memory_limit_mb");
+  const nlohmann::json j = memory_json(fits);
+  EXPECT_GT(j.at("estimate_mb").get<double>(), 2000.0);
+  EXPECT_EQ(j.at("limit_source"), "MemAvailable");
+  EXPECT_TRUE(j.at("parts_mb").contains("solver"));
+}
+
+TEST(MemoryGuard, ReadsTheAvailableMemoryOfThisMachine) {
+  const std::optional<double> available = available_memory_mb();
+  ASSERT_TRUE(available.has_value());
+  EXPECT_GT(*available, 0.0);
 }
 
 // ---------------------------------------------------------------------------
