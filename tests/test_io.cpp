@@ -988,6 +988,8 @@ TEST(MemoryGuard, RefusesWhatExceedsTheLimitNamingTheKeys) {
   const nlohmann::json j = memory_json(fits);
   EXPECT_GT(j.at("estimate_mb").get<double>(), 2000.0);
   EXPECT_EQ(j.at("limit_source"), "MemAvailable");
+  EXPECT_TRUE(j.at("limit_mb").is_null()) << "the available memory is not reproducible";
+  EXPECT_EQ(memory_json(check_run_memory(generous, 500.0)).at("limit_mb"), 1e6);
   EXPECT_TRUE(j.at("parts_mb").contains("solver"));
 }
 

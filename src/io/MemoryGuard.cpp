@@ -15,6 +15,7 @@ namespace ehlsim {
 namespace {
 
 constexpr double kBytesPerMB = 1e6;
+constexpr const char* kGivenLimit = "solver.memory_limit_mb";
 /// Calibrated on this machine against the peak RSS (/usr/bin/time -v) of
 /// short runs on 129^2, 257^2 and 513^2, quadrant and full domain
 /// (docs/performance.md, "Memory"), rounded up:
@@ -82,7 +83,7 @@ MemoryBudget check_run_memory(const ImpactConfig& c, std::optional<double> avail
   b.estimate = estimate_run_memory(c);
   if (c.memory_limit_mb > 0.0) {
     b.limit_mb = c.memory_limit_mb;
-    b.limit_source = "solver.memory_limit_mb";
+    b.limit_source = kGivenLimit;
   } else if (available_mb) {
     b.limit_mb = *available_mb;
     b.limit_source = "MemAvailable";
@@ -114,7 +115,10 @@ nlohmann::json memory_json(const MemoryBudget& b) {
                         {"solver", mb(b.estimate.solver_mb)},
                         {"grid", mb(b.estimate.grid_mb)},
                         {"output", mb(b.estimate.output_mb)}}}};
-  j["limit_mb"] = b.limit_source.empty() ? nlohmann::json(nullptr) : nlohmann::json(mb(b.limit_mb));
+  // The available memory changes from run to run: it is not recorded, so
+  // that run.json depends on the input only (docs/usage.md, "Reproducibility").
+  const bool given = b.limit_source == kGivenLimit;
+  j["limit_mb"] = given ? nlohmann::json(b.limit_mb) : nlohmann::json(nullptr);
   j["limit_source"] =
       b.limit_source.empty() ? nlohmann::json(nullptr) : nlohmann::json(b.limit_source);
   return j;

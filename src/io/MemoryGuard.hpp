@@ -39,7 +39,9 @@ struct MemoryBudget {
 [[nodiscard]] MemoryBudget check_run_memory(const ImpactConfig& config,
                                             std::optional<double> available_mb);
 
-/// {"estimate_mb", "limit_mb", "limit_source", "parts_mb": {...}} for run.json.
+/// {"estimate_mb", "limit_mb", "limit_source", "parts_mb": {...}} for run.json;
+/// limit_mb is null unless solver.memory_limit_mb gave it (the available
+/// memory would make run.json differ between runs of the same input).
 [[nodiscard]] nlohmann::json memory_json(const MemoryBudget& budget);
 
 }  // namespace ehlsim
