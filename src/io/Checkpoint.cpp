@@ -353,13 +353,12 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
   const CheckpointReader in{nc, path};
-  int version = 0;
   if (!in.has_attribute("format_version", NC_INT) || !in.has_attribute("title", NC_CHAR) ||
       read_text_attribute(nc, "title") != kFormatName) {
     throw std::runtime_error(fmt::format("'{}' is not an ehlsim checkpoint (no \"{}\" title)",
                                          path.string(), kFormatName));
   }
-  nc.check(nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version), "format_version");
+  const int version = in.scalar<int>("format_version");  // one value, checked before reading
   if (version != kFormatVersion) {
     in.fail("format_version",
             fmt::format("is {}; this ehlsim reads version {} only (checkpoints of other versions "
