@@ -14,6 +14,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -29,8 +30,10 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <thread>
 
 #include "analysis/SpikeAnalysis.hpp"
+#include "grid/Grid.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
 #include "io/Interrupt.hpp"
@@ -43,10 +46,28 @@ extern char** environ;
 namespace cli {
 
 void print_error(std::string_view message) {
-  std::string line(message);
+  // Longer than PATH_MAX: no file name, a value nobody wants to read in full.
+  constexpr std::size_t kLongestWord = 4096;
+  std::string line;
+  std::size_t start = 0;
+  while (start <= message.size()) {
+    const std::size_t end = std::min(message.find(' ', start), message.size());
+    const std::string_view word = message.substr(start, end - start);
+    line += word.size() > kLongestWord ? ehlsim::echo_input(word) : std::string(word);
+    if (end < message.size()) line += ' ';
+    start = end + 1;
+  }
   std::replace(line.begin(), line.end(), '\n', ' ');
   std::replace(line.begin(), line.end(), '\r', ' ');
   std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
+}
+
+CLI::Validator not_empty(const std::string& what) {
+  return CLI::Validator(
+      [what](const std::string& value) {
+        return value.empty() ? "must name " + what + ", not be empty" : std::string();
+      },
+      "", "NOT_EMPTY");
 }
 
 }  // namespace cli
@@ -273,6 +294,59 @@ int report_interruption(const std::vector<Case>& cases) {
 
 fs::path default_plot_script() { return fs::path(EHLSIM_SCRIPT_DIR) / "plot_study.py"; }
 
+/// The cores this process may run on: the most cases that can run side by side.
+int available_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+/// The keys the study sets in every case itself: a --set of one of them
+/// would be overridden, so it is refused rather than ignored.
+std::optional<std::string> study_owned(const std::string& key) {
+  const std::string section = key.substr(0, key.find('.'));
+  if (section == "case" || section == "physical")
+    return fmt::format("M = {} with L = {:g}", fmt::join(kStudyM, ", "), kStudyL);
+  if (key == "grid" || key == "grid.points") return std::string("grid.points from --grid");
+  if (key == "output" || key.starts_with("output.snapshot_"))
+    return std::string("the snapshots of the paper's figures");
+  return std::nullopt;
+}
+
+/// Bad study options, before anything runs: exit 2 with the option named.
+void check_study_options(const StudyOptions& options) {
+  if (!(options.grid >= kMinGridPoints && options.grid <= kMaxGridPoints &&
+        is_power_of_two_plus_one(options.grid))) {
+    throw ConfigError(fmt::format(
+        "--grid = {}: must be 2^k + 1 between {} and {} (the points per side of every case)",
+        options.grid, kMinGridPoints, kMaxGridPoints));
+  }
+  const int cores = available_cores();
+  if (options.jobs < 1 || options.jobs > cores) {
+    throw ConfigError(fmt::format(
+        "--jobs = {}: must be in [1, {}] (the cores of this machine; each case runs on one)",
+        options.jobs, cores));
+  }
+  for (const std::string& assignment : options.overrides) {
+    const std::size_t eq = assignment.find('=');
+    std::string key = assignment.substr(0, eq);
+    key.erase(0, key.find_first_not_of(" \t"));
+    key.erase(key.find_last_not_of(" \t") + 1);
+    if (const auto why = study_owned(key)) {
+      throw ConfigError(fmt::format("--set '{}': the study sets {} itself in every case ({}); "
+                                    "--set applies the other keys to every case",
+                                    echo_input(assignment), echo_input(key), *why),
+                        key);
+    }
+  }
+  if (!options.no_plots && ::access(options.python.c_str(), X_OK) != 0) {
+    throw ConfigError(
+        fmt::format("--python '{}': {} (give a Python 3 with numpy and matplotlib, or --no-plots)",
+                    echo_input(options.python), std::strerror(errno)));
+  }
+}
+
 }  // namespace
 
 CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
@@ -283,9 +357,11 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
   cmd->add_option("-g,--grid", options.grid, "points per side (2^k + 1; the paper used 1025)")
       ->capture_default_str();
   cmd->add_option("-o,--out", options.out_dir, "study directory (created if missing)")
+      ->check(cli::not_empty("a directory"))
       ->capture_default_str();
-  cmd->add_option("-j,--jobs", options.jobs, "cases run at the same time (one thread each)")
-      ->check(CLI::PositiveNumber)
+  options.jobs = std::min(options.jobs, available_cores());
+  cmd->add_option("-j,--jobs", options.jobs,
+                  "cases run at the same time (one thread each), at most the number of cores")
       ->capture_default_str();
   cmd->add_option(
          "--set", options.overrides,
@@ -305,6 +381,7 @@ int run_study(const StudyOptions& options) {
   // SIGINT, SIGTERM, SIGHUP go on to the running cases; the study waits for them.
   const InterruptGuard interrupts;
   const auto start = std::chrono::steady_clock::now();
+  check_study_options(options);
   const fs::path out = options.out_dir;
   std::vector<Case> cases = study_cases(options, out);
   ImpactConfig reference;

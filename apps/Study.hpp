@@ -12,8 +12,14 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
-/// "ehlsim: error: <message>" as one line on stderr.
+/// "ehlsim: error: <message>" as one line on stderr.  Words longer than any
+/// path (a runaway value that reached the message unshortened, e.g. through
+/// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
 void print_error(std::string_view message);
+
+/// Refuses an empty argument of an option that names a file or directory
+/// ("--out: must name a directory, not be empty").
+[[nodiscard]] CLI::Validator not_empty(const std::string& what);
 
 }  // namespace cli
 

@@ -28,6 +28,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "Rolling.hpp"
@@ -37,6 +38,7 @@
 #include "impact/ImpactProblem.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunAnalysis.hpp"
@@ -74,6 +76,7 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
                   "TOML file with the case (default: the paper's case M = 100, L = 10)");
   cmd->add_option("-o,--out", options.out_dir,
                   "run directory for timeseries.csv, fields.nc and run.json (created if missing)")
+      ->check(cli::not_empty("a directory"))
       ->capture_default_str();
   cmd->add_option("--set", options.overrides,
                   "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
@@ -83,6 +86,7 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
   cmd->add_option("--restart", options.restart_file,
                   "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
                   "solver.*, output.*, spike.*, time.T_end and time.max_steps may differ")
+      ->check(cli::not_empty("a checkpoint file"))
       ->type_name("CHECKPOINT");
   cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
   cmd->footer("\n" + describe_parameters());
@@ -238,12 +242,14 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
 
 /// What run.json records under "invocation".
 nlohmann::json invocation_json(const ImpactOptions& options,
-                               const std::optional<Checkpoint>& checkpoint) {
+                               const std::optional<Checkpoint>& checkpoint,
+                               const MemoryBudget& memory) {
   nlohmann::json invocation = {
       {"config_file",
        options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
       {"overrides", options.overrides},
-      {"out", options.out_dir}};
+      {"out", options.out_dir},
+      {"memory", memory_json(memory)}};
   if (checkpoint)
     invocation["restart"] = {{"checkpoint", options.restart_file},
                              {"step", checkpoint->state.step},
@@ -263,12 +269,20 @@ int run_impact(const ImpactOptions& options) {
     print_error(e.what());
     return kExitBadInput;
   }
+  // Before anything big is allocated or the run directory is made.
+  MemoryBudget memory;
+  try {
+    memory = check_run_memory(config, available_memory_mb());
+  } catch (const ConfigError& e) {
+    print_error(e.what());
+    return kExitBadInput;
+  }
   std::optional<Checkpoint> checkpoint;
   if (!options.restart_file.empty()) {
     try {
       checkpoint = read_checkpoint(options.restart_file);
     } catch (const std::runtime_error& e) {
-      print_error(fmt::format("--restart: {}", e.what()));
+      print_error(e.what());  // names the file, and the field of a damaged one
       return kExitBadInput;
     }
     check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
@@ -282,7 +296,7 @@ int run_impact(const ImpactOptions& options) {
       fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
                  checkpoint->state.step, checkpoint->state.ball.T);
   }
-  const nlohmann::json invocation = invocation_json(options, checkpoint);
+  const nlohmann::json invocation = invocation_json(options, checkpoint, memory);
   KeptCheckpoint kept;
   const std::filesystem::path kept_path = run_dir->checkpoint();
   try {
@@ -372,6 +386,15 @@ int run(int argc, char** argv) {
   RollingOptions rolling;
   CLI::App* rolling_cmd = add_rolling_command(app, rolling);
 
+  // CLI11 says only "A subcommand is required" for a misspelt one.
+  const auto is_command = [&](const CLI::App* command) { return command->check_name(argv[1]); };
+  if (argc > 1 && argv[1][0] != '-' && std::as_const(app).get_subcommands(is_command).empty()) {
+    print_error(
+        fmt::format("unknown command '{}' (commands: impact, spike, study; try ehlsim "
+                    "--help)",
+                    echo_input(argv[1])));
+    return kExitBadInput;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

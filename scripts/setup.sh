@@ -9,6 +9,7 @@ PACKAGES=(
   libtomlplusplus-dev     # configuration files
   libcli11-dev            # command line
   libfmt-dev              # formatting
+  zlib1g-dev              # CRC-32 of the checkpoints
   libnetcdf-dev netcdf-bin  # fields.nc output (netcdf-bin: ncdump, for inspection and the reproducibility tests)
   nlohmann-json3-dev      # run.json
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks

@@ -207,4 +207,27 @@ TEST(SpikeAnalysis, DryContactRadiusOfModelMd) {
   EXPECT_EQ(dry.at(4.3), 0.0);
 }
 
+TEST(SpikeAnalysis, DryContactRadiusIsBoundedForRunawayStarts) {
+  // The probes of issue 10 (time.Delta0 = 1e6, time.V0 = 1e-9) grew the table
+  // by 400 MB/s: the free flight before contact is not tabulated, and a slow
+  // impact takes longer steps.
+  const std::size_t most = std::size_t{1} << 20;
+  const DryContactRadius far(1e6, 1.0);
+  EXPECT_NEAR(far.T_contact(), 1e6, 1e-6);
+  EXPECT_NEAR(far.T_lift_off() - far.T_contact(), 3.2181, 1e-4);
+  EXPECT_NEAR(far.at(1e6 + 2.223), 0.9424, 1e-4);  // the V0 = 1 contact, shifted
+  EXPECT_EQ(far.at(5e5), 0.0);
+  EXPECT_LT(far.table_size(), most);
+  const DryContactRadius slow(1.0, 1e-9);
+  EXPECT_NEAR(slow.T_contact(), 1e9, 1e-3);
+  // Hertz: the contact lasts 3.2181 V0^-0.2 and reaches A = sqrt(1.0934 V0^0.8).
+  const double duration = 3.2181 * std::pow(1e-9, -0.2);
+  EXPECT_NEAR((slow.T_lift_off() - slow.T_contact()) / duration, 1.0, 1e-4);
+  EXPECT_NEAR(slow.at(slow.T_contact() + 0.5 * duration) / std::sqrt(1.0934 * std::pow(1e-9, 0.8)),
+              1.0, 1e-3);
+  EXPECT_LT(slow.table_size(), most);
+  // The default case keeps its fine table.
+  EXPECT_LT(DryContactRadius(1.0, 1.0).table_size(), 10'000u);
+}
+
 }  // namespace

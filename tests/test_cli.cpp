@@ -1,18 +1,24 @@
 // The ehlsim command: exit codes and one-line error messages for bad input,
 // --help / --version, and one tiny real run.
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "io/Checkpoint.hpp"
+#include "support/CheckpointDamage.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
 
@@ -25,6 +31,14 @@ using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
 using ehlsim::testing::TempDir;
+
+/// The cores this process may run on (the bound of study --jobs).
+int available_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return CPU_COUNT(&set);
+  return static_cast<int>(std::thread::hardware_concurrency());
+}
 
 fs::path write_file(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;
@@ -97,6 +111,35 @@ TEST(Cli, BadCommandLine) {
   }
 }
 
+TEST(Cli, EmptyPathsAreBadInput) {
+  expect_bad_input(ehlsim("impact --restart ''"),
+                   "--restart: must name a checkpoint file, not be empty");
+  expect_bad_input(ehlsim("impact --out ''"), "--out: must name a directory, not be empty");
+  expect_bad_input(ehlsim("study --out ''"), "--out: must name a directory, not be empty");
+}
+
+TEST(Cli, UnknownCommandIsNamed) {
+  expect_bad_input(ehlsim("frobnicate --out x"),
+                   "unknown command 'frobnicate' (commands: impact, spike, study; try ehlsim "
+                   "--help)");
+}
+
+TEST(Cli, RunawayValuesAreShortenedInErrors) {
+  TempDir dir;
+  constexpr std::size_t kBytes = 10'000'000;
+  const std::string f =
+      write_file(dir / "big.toml", "[case]\nM = \"" + std::string(kBytes, 'a') + "\"\n").string();
+  // 80 characters of the value as written (quote included), then its size.
+  expect_bad_input(ehlsim("impact " + quote(f)),
+                   "case.M = \"" + std::string(79, 'a') +
+                       "... (10000002 bytes): must be a number > 0 (" + f + ":2:5)");
+  // Through CLI11 too: a word longer than any path is shortened.
+  const Result r = ehlsim("study --jobs " + std::string(100'000, '7'));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_LT(r.err.size(), 300u) << r.err.substr(0, 300);
+  EXPECT_NE(r.err.find("... (100000 bytes)"), std::string::npos) << r.err.substr(0, 300);
+}
+
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
   TempDir dir;
   const std::string blocker = write_file(dir / "file", "not a directory").string();
@@ -140,6 +183,30 @@ TEST(Cli, UsageDocumentsTheHelpVerbatim) {
 Result tiny_run(const fs::path& run, const std::string& options) {
   return ehlsim("impact --quiet --set grid.points=33 --set solver.coarsest_points=9 " + options +
                 " --out " + quote(run.string()));
+}
+
+TEST(Cli, MemoryGuardRefusesAHugeGridAtOnce) {
+  TempDir dir;
+  const fs::path out = dir / "run";
+  const auto start = std::chrono::steady_clock::now();
+  const Result r = ehlsim("impact --set grid.points=4097 --set solver.memory_limit_mb=100 --out " +
+                          quote(out.string()));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("ehlsim: error: grid.points = 4097: the run needs about ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("more than the limit solver.memory_limit_mb = 100: use fewer grid.points, "
+                       "or raise solver.memory_limit_mb\n"),
+            std::string::npos)
+      << r.err;
+  EXPECT_LT(seconds, 10.0);  // refused before any allocation (milliseconds unloaded)
+  EXPECT_FALSE(fs::exists(out));
+  // A run that fits records the estimate and the limit.
+  ASSERT_EQ(tiny_run(out, "--set body.elastic=false --set time.T_end=0.2").exit_code, 0);
+  const nlohmann::json memory =
+      nlohmann::json::parse(read_file(out / "run.json")).at("invocation").at("memory");
+  EXPECT_GT(memory.at("estimate_mb").get<double>(), 0.0);
+  EXPECT_EQ(memory.at("limit_source"), "MemAvailable");
 }
 
 TEST(Cli, TinyRun) {
@@ -198,11 +265,41 @@ TEST(Cli, RestartFromACheckpoint) {
   r = tiny_run(dir / "fourth",
                "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("--restart: cannot read checkpoint '" + not_a_checkpoint.string()),
-            std::string::npos)
+  EXPECT_NE(r.err.find("cannot read checkpoint '" + not_a_checkpoint.string()), std::string::npos)
       << r.err;
   EXPECT_FALSE(fs::exists(dir / "third"));
   EXPECT_FALSE(fs::exists(dir / "fourth"));
+}
+
+TEST(Cli, RestartRefusesADamagedCheckpoint) {
+  // The probes of issue 10: 16 flipped bytes, T = NaN, step = INT_MAX.
+  TempDir dir;
+  const std::string options = "--set body.elastic=false --set time.T_end=0.5 ";
+  ASSERT_EQ(tiny_run(dir / "first", options + "--set output.checkpoint_every=2").exit_code, 0);
+  const fs::path good = dir / "first" / "checkpoint.nc";
+  const fs::path bad = dir / "checkpoint.nc";
+  const auto restart = [&] {
+    return tiny_run(dir / "second", options + "--restart " + quote(bad.string()));
+  };
+  const std::string prefix = "checkpoint " + bad.string() + ": ";
+
+  fs::copy_file(good, bad);
+  const ehlsim::Field rhoH = ehlsim::read_checkpoint(good).state.rhoH;
+  ehlsim::testing::flip_16_bytes_of(bad, rhoH, rhoH.size() / 2);
+  expect_bad_input(restart(), prefix +
+                                  "checksum mismatch: the file is corrupt (its data do not match "
+                                  "the CRC-32 it was written with)");
+  fs::copy_file(good, bad, fs::copy_options::overwrite_existing);
+  ehlsim::testing::rewrite_attribute(bad, "T", std::numeric_limits<double>::quiet_NaN());
+  expect_bad_input(restart(), prefix + "field 'T' is not finite (nan)");
+  fs::copy_file(good, bad, fs::copy_options::overwrite_existing);
+  ehlsim::testing::rewrite_attribute(bad, "step", std::numeric_limits<int>::max());
+  const Result r = restart();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(
+      r.err.rfind("ehlsim: error: " + prefix + "field 'step' = 2147483647 does not match T", 0), 0u)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "second"));
 }
 
 TEST(Cli, BadSpikeKeys) {
@@ -263,12 +360,47 @@ TEST(Cli, SpikeFilesOfARun) {
 TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   TempDir dir;
   const fs::path out = dir / "study";
-  expect_bad_input(ehlsim("study --grid 100 --out " + quote(out.string())),
-                   "grid.points = 100: must be 2^k + 1 between 9 and 4097 (--set)");
+  expect_bad_input(
+      ehlsim("study --grid 100 --out " + quote(out.string())),
+      "--grid = 100: must be 2^k + 1 between 9 and 4097 (the points per side of every case)");
+  const int cores = available_cores();
+  for (const int jobs : {0, cores + 1, 1000}) {
+    expect_bad_input(
+        ehlsim("study --grid 33 --jobs " + std::to_string(jobs) + " --out " + quote(out.string())),
+        "--jobs = " + std::to_string(jobs) + ": must be in [1, " + std::to_string(cores) +
+            "] (the cores of this machine; each case runs on one)");
+  }
+  expect_bad_input(ehlsim("study --grid 33 --set case.M=3 --out " + quote(out.string())),
+                   "--set 'case.M=3': the study sets case.M itself in every case (M = 100, 50, "
+                   "20, 10 with L = 10); --set applies the other keys to every case");
+  expect_bad_input(
+      ehlsim("study --grid 33 --set output.snapshot_every=1 --out " + quote(out.string())),
+      "--set 'output.snapshot_every=1': the study sets output.snapshot_every itself in every case "
+      "(the snapshots of the paper's figures); --set applies the other keys to every case");
+  expect_bad_input(
+      ehlsim("study --grid 33 --python /nonexistent/python3 --out " + quote(out.string())),
+      "--python '/nonexistent/python3': No such file or directory (give a Python 3 "
+      "with numpy and matplotlib, or --no-plots)");
   expect_bad_input(
       ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
       "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
   EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, StudySetAppliesToEveryCase) {
+  TempDir dir;
+  const fs::path out = dir / "study";
+  const Result r = ehlsim(
+      "study --grid 33 --no-plots --set time.T_end=0.2 --set "
+      "solver.coarsest_points=9 --out " +
+      quote(out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* M : {"M10", "M20", "M50", "M100"}) {
+    const nlohmann::json run = nlohmann::json::parse(read_file(out / M / "run.json"));
+    EXPECT_EQ(run.at("parameters").at("time").at("T_end").get<double>(), 0.2) << M;
+    EXPECT_EQ(run.at("parameters").at("solver").at("coarsest_points").get<int>(), 9) << M;
+    EXPECT_EQ(run.at("results").at("outcome").get<std::string>(), "t_end") << M;
+  }
 }
 
 /// The whole study on a 33^2 grid (about 2 s): four child runs, their spike

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -29,6 +30,7 @@
 #include "io/Checkpoint.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Interrupt.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/RunDirectory.hpp"
@@ -37,6 +39,7 @@
 #include "io/ThreadBudget.hpp"
 #include "io/TimeSeriesWriter.hpp"
 #include "rheology/Lubricant.hpp"
+#include "support/CheckpointDamage.hpp"
 #include "support/SteelBall.hpp"
 #include "support/TempDir.hpp"
 
@@ -776,30 +779,55 @@ TEST(Writers, NetcdfErrorsNameTheFile) {
 // Checkpoints
 // ---------------------------------------------------------------------------
 
-TEST(Checkpoint, RoundTripIsExact) {
-  TempDir dir;
+/// The effective parameters of the default case on 17^2 points.
+nlohmann::json small_case_parameters() {
+  return effective_parameters_json(
+      load_config(std::nullopt, {"grid.points=17", "solver.coarsest_points=9"}));
+}
+
+/// A state a run could have written: step 42 at the parameters' time step on
+/// 17^2 points, fields > 0 with a different pattern in each.
+ImpactState plausible_state(const nlohmann::json& parameters) {
   const Grid2D grid(17, 1.5);
+  const double dT = parameters.at("time").at("dT").get<double>();
   ImpactState s;
   s.step = 42;
-  s.ball = {1.234567890123, -0.3141592653589793, 0.27182818284590, 1.6180339887};
+  s.ball = {42 * dT, -0.3141592653589793, 0.27182818284590, 1.6180339887};
   s.force = 0.5772156649;
   s.force_before = 0.5772;
   s.had_pressure = true;
   s.summary.steps = 42;
   s.summary.max_force = 2.1;
   s.summary.T_lift_off = std::numeric_limits<double>::quiet_NaN();  // no lift-off yet
+  s.summary.rebound_speed = std::numeric_limits<double>::quiet_NaN();
   s.summary.impulse = 1.0 / 3.0;
   s.summary.unconverged_steps = 3;
   s.summary.retried_steps = 5;
-  double phase = 0.0;  // a different pattern in each field
+  double phase = 0.0;
   for (Field* f : {&s.P, &s.P_before, &s.rhoH, &s.rhoH_before}) {
     *f = Field(grid);
     phase += 1.0;
     double x = phase;
-    for (std::size_t k = 0; k < f->size(); ++k, x += 0.37) (*f)[k] = std::sin(x) / 3.0;
+    for (std::size_t k = 0; k < f->size(); ++k, x += 0.37) (*f)[k] = 0.1 + std::fabs(std::sin(x));
   }
+  return s;
+}
+
+/// read_checkpoint's error for `path`: its message, "" if it reads.
+std::string checkpoint_error(const fs::path& path) {
+  try {
+    (void)read_checkpoint(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Checkpoint, RoundTripIsExact) {
+  TempDir dir;
+  const nlohmann::json parameters = small_case_parameters();
+  ImpactState s = plausible_state(parameters);
   s.P_before[5] = 1e-300;  // every bit must survive
-  const nlohmann::json parameters = effective_parameters_json(load_config(std::nullopt, {}));
   const fs::path path = dir / "checkpoint.nc";
   write_checkpoint(path, s, parameters);
   EXPECT_FALSE(fs::exists(path.string() + PartialFile::kSuffix));
@@ -849,6 +877,82 @@ TEST(Checkpoint, ReadingSomethingElseNamesTheFile) {
   }
 }
 
+TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
+  TempDir dir;
+  const nlohmann::json parameters = small_case_parameters();
+  const ImpactState good = plausible_state(parameters);
+  const fs::path path = dir / "checkpoint.nc";
+  const auto fresh = [&] { write_checkpoint(path, good, parameters); };
+  const std::string prefix = "checkpoint " + path.string() + ": ";
+
+  fresh();
+  ASSERT_EQ(checkpoint_error(path), "");
+  // The probes of issue 10: 16 flipped bytes, T = NaN, step = INT_MAX.
+  ehlsim::testing::flip_16_bytes_of(path, good.rhoH, 40);
+  EXPECT_EQ(checkpoint_error(path),
+            prefix +
+                "checksum mismatch: the file is corrupt (its data do not match the CRC-32 "
+                "it was written with)");
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "T", std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(checkpoint_error(path), prefix + "field 'T' is not finite (nan)");
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "step", std::numeric_limits<int>::max());
+  EXPECT_EQ(checkpoint_error(path).rfind(prefix + "field 'step' = 2147483647 does not match T = "),
+            0u)
+      << checkpoint_error(path);
+  // A value that is plausible but not the one written: only the checksum sees it.
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "force", 5.44);
+  EXPECT_NE(checkpoint_error(path).find("checksum mismatch"), std::string::npos);
+  // An older format.
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "format_version", 2);
+  EXPECT_EQ(checkpoint_error(path),
+            prefix +
+                "field 'format_version' is 2; this ehlsim reads version 3 only (checkpoints "
+                "of other versions cannot be continued: run the case again from the start)");
+}
+
+TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
+  TempDir dir;
+  const nlohmann::json parameters = small_case_parameters();
+  const fs::path path = dir / "checkpoint.nc";
+  const std::string prefix = "checkpoint " + path.string() + ": field ";
+  const auto error_of = [&](const std::function<void(ImpactState&)>& damage) {
+    ImpactState s = plausible_state(parameters);
+    damage(s);
+    write_checkpoint(path, s, parameters);
+    return checkpoint_error(path);
+  };
+  EXPECT_EQ(error_of([](ImpactState& s) { s.P(3, 4) = -0.5; }),
+            prefix + "'P' is negative (-0.5) at point (3, 4): a pressure is >= 0");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.rhoH(5, 6) = -1e-3; }),
+            prefix + "'rhoH' is negative (-0.001) at point (5, 6): a film is >= 0");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.rhoH_before(0, 6) = -1.0; }), "")
+      << "the film on the boundary is not a solved value";
+  EXPECT_EQ(
+      error_of([](ImpactState& s) { s.P_before(2, 2) = std::numeric_limits<double>::infinity(); }),
+      prefix + "'P_before' is not finite (inf) at point (2, 2)");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.force = std::numeric_limits<double>::quiet_NaN(); }),
+            prefix + "'force' is not finite (nan)");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.summary.steps = 41; }),
+            prefix + "'summary_steps' = 41 differs from step = 42");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.summary.retried_steps = -1; }),
+            prefix + "'summary_retried_steps' = -1: must be in [0, step = 42]");
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.step = 0;
+              s.summary.steps = 0;
+            }),
+            prefix + "'step' = 0: must be >= 1");
+  // The grid of the parameters must be the one of the fields.
+  nlohmann::json other = parameters;
+  other["grid"]["points"] = 33;
+  write_checkpoint(path, plausible_state(parameters), other);
+  EXPECT_EQ(checkpoint_error(path),
+            prefix + "'x' (dimension) has 17 points; its parameters say grid.points = 33");
+}
+
 TEST(Checkpoint, RestartMustContinueTheSameCase) {
   const nlohmann::json saved = effective_parameters_json(load_config(std::nullopt, {}));
   const auto parameters = [](const std::vector<std::string>& overrides) {
@@ -878,6 +982,81 @@ TEST(Checkpoint, RestartMustContinueTheSameCase) {
       EXPECT_NE(std::string(e.what()).find("checkpoint 'c.nc'"), std::string::npos) << e.what();
     }
   }
+}
+
+// ---------------------------------------------------------------------------
+// Memory guard
+// ---------------------------------------------------------------------------
+
+TEST(MemoryGuard, EstimateGrowsWithTheGridAndTheFullDomain) {
+  const auto estimate = [](const std::vector<std::string>& overrides) {
+    return estimate_run_memory(load_config(std::nullopt, overrides));
+  };
+  const MemoryEstimate small = estimate({"grid.points=129"});
+  const MemoryEstimate large = estimate({"grid.points=513"});
+  const MemoryEstimate full = estimate({"grid.points=513", "solver.symmetry=\"off\""});
+  // The grid-dependent parts grow with the points: 16 times from 129^2 to 513^2 (+-1 level).
+  EXPECT_NEAR(large.grid_mb / small.grid_mb, 16.0, 0.5);
+  EXPECT_NEAR(large.solver_mb / small.solver_mb, 16.0, 0.5);
+  // The full domain holds 4 times the points of the quadrant on every level.
+  EXPECT_NEAR(full.solver_mb / large.solver_mb, 4.0, 0.1);
+  EXPECT_EQ(full.grid_mb, large.grid_mb);
+  // The measured peaks of docs/performance.md are below the estimate.
+  EXPECT_GT(small.total_mb(), 25.6);
+  EXPECT_GT(large.total_mb(), 60.0);
+  EXPECT_GT(full.total_mb(), 107.4);
+  EXPECT_GT(estimate({"grid.points=4097"}).total_mb(), 2000.0);
+  const MemoryEstimate with_checkpoints =
+      estimate({"grid.points=513", "output.checkpoint_every=5"});
+  EXPECT_GT(with_checkpoints.grid_mb, large.grid_mb);
+}
+
+TEST(MemoryGuard, RefusesWhatExceedsTheLimitNamingTheKeys) {
+  const ImpactConfig huge =
+      load_config(std::nullopt, {"grid.points=4097", "solver.memory_limit_mb=100"});
+  try {
+    (void)check_run_memory(huge, 1e9);
+    FAIL() << "expected a refusal";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "grid.points");
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind("grid.points = 4097: the run needs about ", 0), 0u) << message;
+    EXPECT_NE(message.find("MB of memory (estimate), more than the limit solver.memory_limit_mb = "
+                           "100: use fewer grid.points, or raise solver.memory_limit_mb"),
+              std::string::npos)
+        << message;
+  }
+  // Without a given limit, the machine's available memory is the limit.
+  const ImpactConfig plain = load_config(std::nullopt, {"grid.points=4097"});
+  try {
+    (void)check_run_memory(plain, 500.0);
+    FAIL() << "expected a refusal";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the 500 MB this machine has available "
+                                         "(MemAvailable in /proc/meminfo; solver.memory_limit_mb "
+                                         "sets another limit)"),
+              std::string::npos)
+        << e.what();
+  }
+  const MemoryBudget fits = check_run_memory(plain, 1e6);
+  EXPECT_EQ(fits.limit_source, "MemAvailable");
+  EXPECT_EQ(fits.limit_mb, 1e6);
+  // A given limit replaces the available memory, in both directions.
+  const ImpactConfig generous =
+      load_config(std::nullopt, {"grid.points=4097", "solver.memory_limit_mb=1e6"});
+  EXPECT_EQ(check_run_memory(generous, 500.0).limit_source, "solver.memory_limit_mb");
+  const nlohmann::json j = memory_json(fits);
+  EXPECT_GT(j.at("estimate_mb").get<double>(), 2000.0);
+  EXPECT_EQ(j.at("limit_source"), "MemAvailable");
+  EXPECT_TRUE(j.at("limit_mb").is_null()) << "the available memory is not reproducible";
+  EXPECT_EQ(memory_json(check_run_memory(generous, 500.0)).at("limit_mb"), 1e6);
+  EXPECT_TRUE(j.at("parts_mb").contains("solver"));
+}
+
+TEST(MemoryGuard, ReadsTheAvailableMemoryOfThisMachine) {
+  const std::optional<double> available = available_memory_mb();
+  ASSERT_TRUE(available.has_value());
+  EXPECT_GT(*available, 0.0);
 }
 
 // ---------------------------------------------------------------------------

@@ -3,8 +3,10 @@
 // case map run through the command line: every case ends in lift-off, at rest,
 // or exit 1 naming the step and the reason; bad input is exit 2.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -259,6 +261,61 @@ TEST(CaseMap, TheStepCapEndsARunUntilLiftOff) {
   const Result r = map_run(dir, 33, "--set time.max_steps=1 --set time.T_end=0.5");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(results_of(dir).at("outcome"), "t_end");
+}
+
+// ---------------------------------------------------------------------------
+// Runaway inputs (issue 10): a start far away or slow
+// ---------------------------------------------------------------------------
+
+/// Exit 2 with the one line `message`, in well under a second of work.
+void expect_refused_at_once(const std::string& args, const std::string& message) {
+  const auto start = std::chrono::steady_clock::now();
+  const Result r = ehlsim("impact --quiet " + args);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: " + message + "\n");
+  EXPECT_LT(seconds, 10.0);  // a loaded machine; the refusal itself takes milliseconds
+}
+
+TEST(RunawayInputs, AStartTooSlowOrTooFarIsRefusedBeforeAnyWork) {
+  // Both grew the dry-Hertz table at 400 MB/s before.
+  expect_refused_at_once(
+      "--set time.V0=1e-9",
+      "time.V0 = 1e-09: a run until lift-off from time.Delta0 = 1 may need 3.41e+11 time steps "
+      "of dT = 0.01172 (the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at "
+      "most 10000000 are allowed: start closer or faster, or set time.T_end or time.max_steps "
+      "(--set)");
+  expect_refused_at_once(
+      "--set time.Delta0=1e6",
+      "time.Delta0 = 1000000: a run until lift-off at time.V0 = 1 may need 3.41e+08 time steps "
+      "of dT = 0.01172 (the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at "
+      "most 10000000 are allowed: start closer or faster, or set time.T_end or time.max_steps "
+      "(--set)");
+  expect_refused_at_once("--set time.T_end=1e9",
+                         "time.T_end = 1000000000: needs 8.53e+10 time steps of time.dT = "
+                         "0.01172; at most 10000000 are allowed (--set)");
+}
+
+TEST(RunawayInputs, ASlowStartToAGivenTimeRunsWithABoundedDryReference) {
+  // The spike analysis needs the dry contact radius of this start: its
+  // trajectory must not tabulate the 1e9 time units of flight before contact.
+  TempDir dir;
+  const auto start = std::chrono::steady_clock::now();
+  const Result r = ehlsim(
+      "impact --quiet --set grid.points=17 --set solver.coarsest_points=9 --set time.V0=1e-9 "
+      "--set time.T_end=0.5 --out " +
+      quote((dir / "run").string()));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_LT(seconds, 30.0);
+  rusage usage{};
+  ASSERT_EQ(getrusage(RUSAGE_CHILDREN, &usage), 0);
+  constexpr long kMostKilobytes = 500 * 1024;  // the largest child of this test program
+  EXPECT_LT(usage.ru_maxrss, kMostKilobytes);
+  const nlohmann::json run = nlohmann::json::parse(read_file(dir / "run" / "run.json"));
+  EXPECT_EQ(run.at("results").at("outcome"), "t_end");
 }
 
 }  // namespace

@@ -38,6 +38,9 @@ constexpr double kDryTimeStep = 1e-3;
 /// duration scales as V0^(-1/5).
 constexpr double kDryContactDuration = 3.2181;
 constexpr double kDryDurationExponent = -0.2;
+/// Most steps of the dry trajectory over one contact duration (a table of at
+/// most about 2^19 time levels, 12 MB, for any V0).
+constexpr double kMaxDryContactSteps = 1 << 18;
 
 /// values, padded: `pad` mirrored samples before (v[pad], ..., v[1]) and `pad`
 /// copies of the last sample after.
@@ -312,13 +315,21 @@ std::vector<double> finite_difference_rate(std::span<const double> t, std::span<
 }
 
 DryContactRadius::DryContactRadius(double Delta0, double V0) {
-  const double horizon = std::max(Delta0, 0.0) / V0 +
-                         2.0 * kDryContactDuration * std::pow(V0, kDryDurationExponent) + 1.0;
-  DryImpact dry = simulate_dry_hertz(Delta0, V0, kDryTimeStep, horizon);
+  // Out of contact the ball flies at -V0 (no force): the trajectory starts at
+  // the last step on the kDryTimeStep grid before contact, however far away
+  // the ball starts, and its table spans the contact only.  Very slow impacts
+  // last long (V0^-0.2): their step grows so that the table stays bounded.
+  const double duration = kDryContactDuration * std::pow(V0, kDryDurationExponent);
+  const double dt = std::max(kDryTimeStep, duration / kMaxDryContactSteps);
+  const double free_steps = std::floor(std::max(Delta0, 0.0) / (V0 * dt));
+  const double T_start = free_steps * dt;
+  const double horizon = 2.0 * duration + 1.0;
+  DryImpact dry = simulate_dry_hertz(Delta0 - V0 * T_start, V0, dt, horizon);
   T_ = std::move(dry.T);
+  for (double& T : T_) T += T_start;
   Delta_ = std::move(dry.Delta);
-  T_contact_ = dry.T_contact;
-  T_lift_off_ = dry.T_lift_off;
+  T_contact_ = dry.T_contact + T_start;
+  T_lift_off_ = dry.T_lift_off + T_start;
 }
 
 double DryContactRadius::at(double T) const {

@@ -131,6 +131,8 @@ class DryContactRadius {
   [[nodiscard]] double at(double T) const;
   [[nodiscard]] double T_contact() const { return T_contact_; }
   [[nodiscard]] double T_lift_off() const { return T_lift_off_; }
+  /// Time levels stored (bounded for every Delta0 and V0).
+  [[nodiscard]] std::size_t table_size() const { return T_.size(); }
 
  private:
   std::vector<double> T_, Delta_;

@@ -68,9 +68,17 @@ double elastic_energy(const Grid2D& grid, const Field& P, const Field& W) {
   return 3.0 / (4.0 * std::numbers::pi) * sum * grid.h() * grid.h();
 }
 
-int default_max_steps(double Delta0, double V0, double dT) {
+double default_max_steps_exact(double Delta0, double V0, double dT) {
   const double dry_lift_off = Delta0 / V0 + kDryContactTime * std::pow(V0, -0.2);
-  return static_cast<int>(std::ceil(kMaxStepsDryLiftOffs * dry_lift_off / dT));
+  return std::ceil(kMaxStepsDryLiftOffs * dry_lift_off / dT);
+}
+
+int default_max_steps(double Delta0, double V0, double dT) {
+  // Saturated: a start too far or too slow for an int is refused as input
+  // (io/Parameters.cpp, kMaxTimeSteps), never cast out of range.
+  const double steps = default_max_steps_exact(Delta0, V0, dT);
+  return steps < std::numeric_limits<int>::max() ? static_cast<int>(steps)
+                                                 : std::numeric_limits<int>::max();
 }
 
 RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {

@@ -31,7 +31,9 @@ namespace ehlsim {
 
 /// The default of time.max_steps: the steps of kMaxStepsDryLiftOffs times the
 /// dry lift-off time Delta0 / V0 + T_c(V0) at the time step dT.
+/// Saturates at the largest int; default_max_steps_exact is the unrounded count.
 [[nodiscard]] int default_max_steps(double Delta0, double V0, double dT);
+[[nodiscard]] double default_max_steps_exact(double Delta0, double V0, double dT);
 
 /// The bounds of one run, fixed at T = 0 from its energy.
 struct RunBounds {

@@ -2,11 +2,14 @@
 
 #include <fmt/format.h>
 #include <netcdf.h>
+#include <zlib.h>
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -22,7 +25,12 @@ namespace {
 constexpr const char* kFormatName = "ehlsim checkpoint";
 /// Raised when the layout of the file changes; a reader accepts only its own.
 /// 2: summary_initial_elastic_energy (the energy bounds of a run).
-constexpr int kFormatVersion = 2;
+/// 3: checksum_crc32 over every stored value; the reader checks plausibility.
+constexpr int kFormatVersion = 3;
+constexpr const char* kChecksumAttribute = "checksum_crc32";
+/// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
+/// it differs from step dT by rounding only (about step x 1e-16).
+constexpr double kStepTimeTolerance = 1e-6;
 
 /// The double-valued scalars of the state, by attribute name: one list serves
 /// writing and reading, so the two cannot drift apart.
@@ -96,6 +104,198 @@ std::string read_text_attribute(const NcFile& nc, const char* name) {
   return text;
 }
 
+/// CRC-32 (zlib) of a sequence of names and values, in the order given.
+class Crc32 {
+ public:
+  void add(std::string_view bytes) {
+    value_ = crc32_z(value_, reinterpret_cast<const Bytef*>(bytes.data()), bytes.size());
+  }
+  template <class T>
+  void add_value(const T& value) {
+    add(std::string_view(reinterpret_cast<const char*>(&value), sizeof(T)));
+  }
+  void add_field(const Field& f) {
+    add(std::string_view(reinterpret_cast<const char*>(f.data()), f.size() * sizeof(double)));
+  }
+  [[nodiscard]] std::uint32_t value() const { return static_cast<std::uint32_t>(value_); }
+
+ private:
+  uLong value_ = crc32_z(0L, Z_NULL, 0);
+};
+
+/// The checksum of everything a checkpoint stores: the format, the writer's
+/// version, the parameters as written (JSON text), every scalar and field.
+std::uint32_t checkpoint_checksum(const ImpactState& s, std::string_view parameters_text,
+                                  std::string_view ehlsim_version) {
+  Crc32 crc;
+  crc.add(kFormatName);
+  crc.add_value(kFormatVersion);
+  crc.add(ehlsim_version);
+  crc.add(parameters_text);
+  for_each_scalar(s, [&](const char* name, double value) {
+    crc.add(name);
+    crc.add_value(value);
+  });
+  for_each_integer(s, [&](const char* name, int value) {
+    crc.add(name);
+    crc.add_value(value);
+  });
+  crc.add_value(s.had_pressure ? 1 : 0);
+  crc.add_value(s.P.n());
+  for_each_field(s, [&](const char* name, const char*, const Field& f) {
+    crc.add(name);
+    crc.add_field(f);
+  });
+  return crc.value();
+}
+
+template <class T>
+constexpr nc_type netcdf_type() {
+  if constexpr (std::is_same_v<T, double>) return NC_DOUBLE;
+  if constexpr (std::is_same_v<T, int>) return NC_INT;
+  if constexpr (std::is_same_v<T, std::uint32_t>) return NC_UINT;
+}
+
+/// Reads the attributes and variables of a checkpoint, checking their type
+/// and size before any value is read: a damaged file gives an error that
+/// names the file and the field, never an overflow.
+struct CheckpointReader {
+  const NcFile& nc;
+  const std::filesystem::path& path;
+
+  [[noreturn]] void fail(std::string_view field, std::string_view problem) const {
+    throw std::runtime_error(
+        fmt::format("checkpoint {}: field '{}' {}", path.string(), field, problem));
+  }
+  [[nodiscard]] bool has_attribute(const char* name, nc_type type) const {
+    nc_type stored = NC_NAT;
+    std::size_t length = 0;
+    return nc_inq_att(nc.id, NC_GLOBAL, name, &stored, &length) == NC_NOERR && stored == type &&
+           length >= 1;
+  }
+  template <class T>
+  [[nodiscard]] T scalar(const char* name) const {
+    nc_type type = NC_NAT;
+    std::size_t length = 0;
+    if (nc_inq_att(nc.id, NC_GLOBAL, name, &type, &length) != NC_NOERR) fail(name, "is missing");
+    if (type != netcdf_type<T>() || length != 1) fail(name, "is not a single value of its type");
+    T value{};
+    nc.check(nc_get_att(nc.id, NC_GLOBAL, name, &value), name);
+    return value;
+  }
+  [[nodiscard]] std::string text(const char* name) const {
+    if (!has_attribute(name, NC_CHAR)) fail(name, "is missing or not text");
+    return read_text_attribute(nc, name);
+  }
+  /// The id of the double variable `name` on the (y, x) grid of n x n points.
+  [[nodiscard]] int field_variable(const char* name, int n) const {
+    int var = -1;
+    if (nc_inq_varid(nc.id, name, &var) != NC_NOERR) fail(name, "is missing");
+    int dims = 0;
+    nc_type type = NC_NAT;
+    nc.check(nc_inq_var(nc.id, var, nullptr, &type, &dims, nullptr, nullptr), name);
+    if (type != NC_DOUBLE || dims != 2) fail(name, "is not a 2-D field of doubles");
+    std::array<int, 2> ids{};
+    std::array<std::size_t, 2> lengths{};
+    nc.check(nc_inq_vardimid(nc.id, var, ids.data()), name);
+    for (int d = 0; d < 2; ++d) nc.check(nc_inq_dimlen(nc.id, ids[d], &lengths[d]), name);
+    const auto expected = static_cast<std::size_t>(n);
+    if (lengths[0] != expected || lengths[1] != expected) {
+      fail(name, fmt::format("has {} x {} values; the grid has {} x {} points", lengths[0],
+                             lengths[1], n, n));
+    }
+    return var;
+  }
+};
+
+/// The grid and time step of a checkpoint, from its parameters, checked
+/// against the dimensions of the file.
+struct CheckpointGrid {
+  int n = 0;
+  double half_width = 0.0;
+  double dT = 0.0;
+};
+
+CheckpointGrid checkpoint_grid(const CheckpointReader& in, const nlohmann::json& parameters) {
+  CheckpointGrid g;
+  try {
+    g.n = parameters.at("grid").at("points").get<int>();
+    g.half_width = parameters.at("grid").at("half_width").get<double>();
+    g.dT = parameters.at("time").at("dT").get<double>();
+  } catch (const nlohmann::json::exception&) {
+    in.fail("ehlsim_parameters", "has no valid grid.points, grid.half_width and time.dT");
+  }
+  if (g.n < kMinGridPoints || g.n > kMaxGridPoints || !(g.half_width > 0.0) ||
+      !std::isfinite(g.half_width) || !(g.dT > 0.0) || !std::isfinite(g.dT)) {
+    in.fail("ehlsim_parameters",
+            fmt::format("has an impossible grid or time step (grid.points = {}, grid.half_width "
+                        "= {}, time.dT = {})",
+                        g.n, g.half_width, g.dT));
+  }
+  for (const char* dim : {"x", "y"}) {
+    int id = -1;
+    std::size_t length = 0;
+    if (nc_inq_dimid(in.nc.id, dim, &id) != NC_NOERR) in.fail(dim, "(dimension) is missing");
+    in.nc.check(nc_inq_dimlen(in.nc.id, id, &length), dim);
+    if (length != static_cast<std::size_t>(g.n)) {
+      in.fail(dim, fmt::format("(dimension) has {} points; its parameters say grid.points = {}",
+                               length, g.n));
+    }
+  }
+  return g;
+}
+
+/// Values a run cannot have stored.  NaN is allowed only where the summary
+/// uses it for "not yet" (no lift-off so far).
+bool may_be_nan(std::string_view name) {
+  return name == "summary_T_lift_off" || name == "summary_rebound_speed";
+}
+
+void check_fields_plausible(const CheckpointReader& in, const ImpactState& s) {
+  for_each_field(s, [&](const char* name, const char*, const Field& f) {
+    const bool pressure = name[0] == 'P';
+    const int n = f.n();
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const double v = f(i, j);
+        if (!std::isfinite(v))
+          in.fail(name, fmt::format("is not finite ({}) at point ({}, {})", v, i, j));
+        const bool interior = i > 0 && j > 0 && i < n - 1 && j < n - 1;
+        // Pressures are >= 0 everywhere (cavitation), films at the interior
+        // points of every kept step (the negative-film guard).
+        if (v < 0.0 && (pressure || interior)) {
+          in.fail(name, fmt::format("is negative ({:.6g}) at point ({}, {}): {}", v, i, j,
+                                    pressure ? "a pressure is >= 0" : "a film is >= 0"));
+        }
+      }
+    }
+  });
+}
+
+void check_plausible(const CheckpointReader& in, const ImpactState& s, const CheckpointGrid& g) {
+  for_each_scalar(s, [&](const char* name, double value) {
+    if (!std::isfinite(value) && !(std::isnan(value) && may_be_nan(name)))
+      in.fail(name, fmt::format("is not finite ({})", value));
+  });
+  if (s.step < 1) in.fail("step", fmt::format("= {}: must be >= 1", s.step));
+  const double expected_T = static_cast<double>(s.step) * g.dT;
+  if (std::fabs(s.ball.T - expected_T) > kStepTimeTolerance * expected_T) {
+    in.fail("step", fmt::format("= {} does not match T = {:.9g}: step x time.dT = {:.9g} "
+                                "(time.dT = {:.9g})",
+                                s.step, s.ball.T, expected_T, g.dT));
+  }
+  if (s.summary.steps != s.step) {
+    in.fail("summary_steps", fmt::format("= {} differs from step = {}", s.summary.steps, s.step));
+  }
+  for (const auto& [name, count] :
+       {std::pair{"summary_unconverged_steps", s.summary.unconverged_steps},
+        std::pair{"summary_retried_steps", s.summary.retried_steps}}) {
+    if (count < 0 || count > s.step)
+      in.fail(name, fmt::format("= {}: must be in [0, step = {}]", count, s.step));
+  }
+  check_fields_plausible(in, s);
+}
+
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const ImpactState& state,
@@ -111,7 +311,8 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
     nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "format_version", NC_INT, 1, &kFormatVersion),
              "format_version");
     text("ehlsim_version", EHLSIM_VERSION);
-    text("ehlsim_parameters", parameters.dump());
+    const std::string parameters_text = parameters.dump();
+    text("ehlsim_parameters", parameters_text);
     for_each_scalar(state, [&](const char* name, double value) {
       nc.check(nc_put_att_double(nc.id, NC_GLOBAL, name, NC_DOUBLE, 1, &value), name);
     });
@@ -121,6 +322,9 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
     const int had_pressure = state.had_pressure ? 1 : 0;
     nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "had_pressure", NC_INT, 1, &had_pressure),
              "had_pressure");
+    const std::uint32_t checksum = checkpoint_checksum(state, parameters_text, EHLSIM_VERSION);
+    nc.check(nc_put_att_uint(nc.id, NC_GLOBAL, kChecksumAttribute, NC_UINT, 1, &checksum),
+             kChecksumAttribute);
 
     const auto n = static_cast<std::size_t>(state.P.n());
     std::array<int, 2> dims{};
@@ -148,53 +352,45 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
   NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
-  int version = 0;
-  if (nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version) != NC_NOERR ||
+  const CheckpointReader in{nc, path};
+  if (!in.has_attribute("format_version", NC_INT) || !in.has_attribute("title", NC_CHAR) ||
       read_text_attribute(nc, "title") != kFormatName) {
     throw std::runtime_error(fmt::format("'{}' is not an ehlsim checkpoint (no \"{}\" title)",
                                          path.string(), kFormatName));
   }
+  const int version = in.scalar<int>("format_version");  // one value, checked before reading
   if (version != kFormatVersion) {
-    throw std::runtime_error(
-        fmt::format("checkpoint '{}' has format version {}; this ehlsim reads {}", path.string(),
-                    version, kFormatVersion));
+    in.fail("format_version",
+            fmt::format("is {}; this ehlsim reads version {} only (checkpoints of other versions "
+                        "cannot be continued: run the case again from the start)",
+                        version, kFormatVersion));
   }
   Checkpoint c;
+  const std::string parameters_text = in.text("ehlsim_parameters");
   try {
-    c.parameters = nlohmann::json::parse(read_text_attribute(nc, "ehlsim_parameters"));
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(fmt::format("checkpoint '{}': its parameters are not valid JSON: {}",
-                                         path.string(), e.what()));
+    c.parameters = nlohmann::json::parse(parameters_text);
+  } catch (const nlohmann::json::exception&) {
+    in.fail("ehlsim_parameters", "is not valid JSON");
   }
   ImpactState& s = c.state;
-  for_each_scalar(s, [&](const char* name, double& value) {
-    nc.check(nc_get_att_double(nc.id, NC_GLOBAL, name, &value), name);
-  });
-  for_each_integer(s, [&](const char* name, int& value) {
-    nc.check(nc_get_att_int(nc.id, NC_GLOBAL, name, &value), name);
-  });
-  int had_pressure = 0;
-  nc.check(nc_get_att_int(nc.id, NC_GLOBAL, "had_pressure", &had_pressure), "had_pressure");
-  s.had_pressure = had_pressure != 0;
-
-  int dim_x = -1;
-  std::size_t n = 0;
-  nc.check(nc_inq_dimid(nc.id, "x", &dim_x), "dimension x");
-  nc.check(nc_inq_dimlen(nc.id, dim_x, &n), "dimension x");
-  double half_width = 0.0;
-  try {
-    half_width = c.parameters.at("grid").at("half_width").get<double>();
-  } catch (const nlohmann::json::exception&) {
-    throw std::runtime_error(
-        fmt::format("checkpoint '{}': its parameters have no grid.half_width", path.string()));
-  }
-  const Grid2D grid(static_cast<int>(n), half_width);
+  for_each_scalar(s, [&](const char* name, double& value) { value = in.scalar<double>(name); });
+  for_each_integer(s, [&](const char* name, int& value) { value = in.scalar<int>(name); });
+  s.had_pressure = in.scalar<int>("had_pressure") != 0;
+  const CheckpointGrid layout = checkpoint_grid(in, c.parameters);
+  const Grid2D grid(layout.n, layout.half_width);
   for_each_field(s, [&](const char* name, const char*, Field& f) {
+    const int var = in.field_variable(name, layout.n);
     f = Field(grid);
-    int var = -1;
-    nc.check(nc_inq_varid(nc.id, name, &var), name);
     nc.check(nc_get_var_double(nc.id, var, f.data()), name);
   });
+  check_plausible(in, s, layout);
+  const std::uint32_t stored = in.scalar<std::uint32_t>(kChecksumAttribute);
+  if (stored != checkpoint_checksum(s, parameters_text, in.text("ehlsim_version"))) {
+    throw std::runtime_error(fmt::format(
+        "checkpoint {}: checksum mismatch: the file is corrupt (its data do not match the "
+        "CRC-32 it was written with)",
+        path.string()));
+  }
   return c;
 }
 

@@ -28,6 +28,16 @@ namespace ehlsim {
 ConfigError::ConfigError(const std::string& message, std::string key)
     : std::runtime_error(message), key_(std::move(key)) {}
 
+std::string echo_input(std::string_view text) {
+  if (text.size() <= kEchoMaxChars) return std::string(text);
+  std::size_t cut = kEchoMaxChars;
+  // Not inside a UTF-8 sequence: continuation bytes are 10xxxxxx.
+  constexpr unsigned char kContinuationMask = 0xC0, kContinuation = 0x80;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & kContinuationMask) == kContinuation)
+    --cut;
+  return fmt::format("{}... ({} bytes)", text.substr(0, cut), text.size());
+}
+
 // ---------------------------------------------------------------------------
 // Enumerations <-> TOML strings
 // ---------------------------------------------------------------------------
@@ -275,7 +285,7 @@ std::vector<ParameterSpec> build_registry() {
     r.push_back(std::move(t_end));
   }
   {
-    ParameterSpec cap = integer("time.max_steps", 0, at_least(1), none, false,
+    ParameterSpec cap = integer("time.max_steps", 0, at_least(1), at_most(kMaxTimeSteps), false,
                                 "a run until lift-off that has not ended (lift-off or at rest) "
                                 "after this many steps fails (exit 1)");
     cap.default_value.reset();
@@ -317,6 +327,10 @@ std::vector<ParameterSpec> build_registry() {
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
                      "when the case is even in X and Y (no waviness, or waviness along an axis), "
                      "4 times fewer points; off: always the full domain"));
+  r.push_back(real("solver.memory_limit_mb", no_default,
+                   "the available memory (MemAvailable of /proc/meminfo)", above(0), none, "MB",
+                   "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
+                   "this, before it starts"));
   add_spike_parameters(r);
   return r;
 }
@@ -508,7 +522,9 @@ std::string origin_suffix(const std::string& origin) {
 
 [[noreturn]] void fail_value(const std::string& key, const std::string& text,
                              const std::string& problem, const std::string& origin) {
-  throw ConfigError(fmt::format("{} = {}: {}{}", key, text, problem, origin_suffix(origin)), key);
+  throw ConfigError(fmt::format("{} = {}: {}{}", echo_input(key), echo_input(text), problem,
+                                origin_suffix(origin)),
+                    key);
 }
 
 std::optional<double> number_of(const toml::node& node) {
@@ -649,8 +665,8 @@ void apply_override(toml::table& root, const std::string& assignment) {
   const std::string key =
       eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
   if (key.empty()) {
-    throw ConfigError(
-        fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20", assignment));
+    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20",
+                                  echo_input(assignment)));
   }
   const std::string value = trim(std::string_view(assignment).substr(eq + 1));
 
@@ -699,19 +715,21 @@ GivenMap collect(const toml::table& root, const ParameterSet& set) {
         const auto first = table->cbegin();
         const std::string key = section + "." + std::string(first->first.str());
         throw ConfigError(
-            fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}", key,
-                        section, section_list(set), origin_suffix(node_origin(first->second))),
+            fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}",
+                        echo_input(key), echo_input(section), section_list(set),
+                        origin_suffix(node_origin(first->second))),
             key);
       }
       if (table) {
-        throw ConfigError(fmt::format("unknown section '[{}]' (known sections: {}){}", section,
-                                      section_list(set), origin_suffix(node_origin(section_node))),
-                          section);
+        throw ConfigError(
+            fmt::format("unknown section '[{}]' (known sections: {}){}", echo_input(section),
+                        section_list(set), origin_suffix(node_origin(section_node))),
+            section);
       }
       throw ConfigError(
           fmt::format(
               "unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
-              section, section_list(set), origin_suffix(node_origin(section_node))),
+              echo_input(section), section_list(set), origin_suffix(node_origin(section_node))),
           section);
     }
     if (!table) {
@@ -722,7 +740,7 @@ GivenMap collect(const toml::table& root, const ParameterSet& set) {
       const std::string key = section + "." + std::string(name.str());
       if (!set.find(key)) {
         throw ConfigError(
-            fmt::format("unknown key '{}' (known keys in [{}]: {}){}", key, section,
+            fmt::format("unknown key '{}' (known keys in [{}]: {}){}", echo_input(key), section,
                         keys_in_section(set, section), origin_suffix(node_origin(node))),
             key);
       }
@@ -1031,6 +1049,31 @@ void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
                       largest, c.Delta0));
 }
 
+/// A run of more than kMaxTimeSteps steps is refused before it starts: a
+/// start far away or slow needs billions of steps (and an int overflows).
+void check_step_count(const Inputs& in, const ImpactConfig& c) {
+  const double dT = effective_time_step(c);
+  const double limit = kMaxTimeSteps;
+  if (std::isfinite(c.T_end)) {
+    const double steps = std::ceil(c.T_end / dT);
+    if (steps <= limit) return;
+    in.fail("time.T_end",
+            fmt::format("needs {:.3g} time steps of time.dT = {:.4g}; at most {} are allowed",
+                        steps, dT, kMaxTimeSteps));
+  }
+  if (in.has("time.max_steps")) return;  // within the registry's range
+  const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
+  if (steps <= limit) return;
+  const bool slow = in.has("time.V0") || !in.has("time.Delta0");
+  const std::string start = slow ? fmt::format("from time.Delta0 = {:g}", c.Delta0)
+                                 : fmt::format("at time.V0 = {:g}", c.V0);
+  in.fail(slow ? "time.V0" : "time.Delta0",
+          fmt::format("a run until lift-off {} may need {:.3g} time steps of dT = {:.4g} (the "
+                      "default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
+                      "are allowed: start closer or faster, or set time.T_end or time.max_steps",
+                      start, steps, dT, kMaxTimeSteps));
+}
+
 void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.elastic = in.get<bool>("body.elastic");
   c.grid_points = in.integer("grid.points");
@@ -1052,7 +1095,9 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
+  c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
   check_undeformed_gap(in, c);
+  check_step_count(in, c);
 }
 
 void assemble_spike(const Inputs& in, ImpactConfig& c) {
@@ -1194,6 +1239,8 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"]["correction_safeguard"] = c.correction_safeguard;
   j["solver"]["retry_damping"] = c.retry_damping;
   j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
+  j["solver"]["memory_limit_mb"] =
+      c.memory_limit_mb > 0.0 ? json(c.memory_limit_mb) : json(nullptr);
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
                 {"max_window_meshes", c.spike.max_window_meshes},

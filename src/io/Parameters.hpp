@@ -39,6 +39,12 @@ class ConfigError : public std::runtime_error {
   std::string key_;
 };
 
+/// A user's input (a value, a key, an option's argument) as an error message
+/// echoes it: in full up to kEchoMaxChars characters, else its start and
+/// "... (N bytes)", so that a runaway value does not flood the terminal.
+inline constexpr std::size_t kEchoMaxChars = 80;
+[[nodiscard]] std::string echo_input(std::string_view text);
+
 enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
 
 /// A parameter value as the registry stores it (defaults, validated inputs).
@@ -80,6 +86,10 @@ struct SectionSpec {
 /// Grid sizes the solver accepts: 2^k + 1 between these bounds.
 inline constexpr int kMinGridPoints = 9;
 inline constexpr int kMaxGridPoints = 4097;
+/// Most time steps a run may take: time.max_steps, time.T_end / time.dT, and
+/// the default step cap of a run until lift-off (a start far away or slow,
+/// e.g. time.V0 = 1e-9, would need billions of steps).
+inline constexpr int kMaxTimeSteps = 10'000'000;
 /// Smallest coarsest multigrid level.
 inline constexpr int kMinCoarsestPoints = 5;
 

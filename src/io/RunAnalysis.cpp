@@ -52,7 +52,7 @@ std::vector<std::string> spike_overrides(const nlohmann::json& run,
       throw ConfigError(
           fmt::format("--set '{}': only spike.* keys apply to an analysis of a "
                       "finished run",
-                      assignment));
+                      echo_input(assignment)));
     }
     out.push_back(assignment);
   }
