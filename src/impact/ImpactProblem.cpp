@@ -12,9 +12,9 @@
 #include <string>
 
 #include "dynamics/Newmark.hpp"
-#include "reynolds/ReynoldsFasLevel.hpp"
 #include "impact/RunGuards.hpp"
 #include "multigrid/Fas.hpp"
+#include "reynolds/ReynoldsHierarchy.hpp"
 
 namespace ehlsim {
 
@@ -84,6 +84,16 @@ void fill_interior(Field& f, const Grid2D& grid, Value&& value) {
     for (int i = first; i < grid.n - 1; ++i) f(i, j) = value(i, j);
 }
 
+reynolds::OperatorSettings operator_settings(const ImpactConfig& c) {
+  reynolds::OperatorSettings op;
+  op.lambda_bar = c.lambda_bar;
+  op.elastic = c.elastic;
+  op.use_fft = c.deformation == DeformationMethod::Fft;
+  op.waviness = {c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg};
+  op.face_mean = c.face_mean;
+  return op;
+}
+
 Lubricant make_lubricant(const ImpactConfig& c) {
   Lubricant lub;
   lub.viscosity = c.viscosity;
@@ -102,7 +112,6 @@ struct ImpactProblem::Impl {
   RunSummary run(ImpactObserver& observer);
 
   // Named steps of run().
-  void setup_hierarchy();
   void set_time_coefficients(double b0);
   void set_delta(double Delta);
   /// Solves one time step for the ball state `ball` (at the old time);
@@ -119,8 +128,6 @@ struct ImpactProblem::Impl {
   /// when max_cycles ended above the tolerance.  Throws on divergence.
   bool iterate_time_step(int step, const BallState& ball);
   StepRecord make_record(int step, const BallState& ball, double force) const;
-  /// Deformation evaluations of all levels so far, in finest-grid units.
-  [[nodiscard]] double work_units() const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
                    bool snapshot) const;
@@ -145,10 +152,10 @@ struct ImpactProblem::Impl {
   Grid2D grid;
   double dT;
   Newmark newmark;
-  std::vector<std::unique_ptr<ReynoldsFasLevel>> levels;
-  std::unique_ptr<multigrid::FasSolver> solver;
-  Field rhoH_now, rhoH_old;  ///< rho H at the last two time levels (finest grid)
-  Field P_before;            ///< pressure of the time level before the last one
+  ReynoldsHierarchy hierarchy;
+  multigrid::FasSolver* solver;  ///< hierarchy's
+  Field rhoH_now, rhoH_old;      ///< rho H at the last two time levels (finest grid)
+  Field P_before;                ///< pressure of the time level before the last one
   BdfCoefficients bdf = kBdf1;
   ImpactProblem::CycleMonitor monitor;
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
@@ -169,44 +176,16 @@ ImpactProblem::Impl::Impl(const ImpactConfig& config)
       grid(solver_grid(config)),
       dT(config.dT > 0.0 ? config.dT : grid.h()),
       newmark(dT),
+      hierarchy(grid, make_lubricant(config), operator_settings(config),
+                relaxation_for(config.relaxation, grid.h()), config),
+      solver(&hierarchy.solver()),
       rhoH_now(grid),
       rhoH_old(grid),
-      P_before(grid) {
-  setup_hierarchy();
-}
+      P_before(grid) {}
 
-void ImpactProblem::Impl::setup_hierarchy() {
-  const Lubricant lubricant = make_lubricant(cfg);
-  reynolds::OperatorSettings op;
-  op.lambda_bar = cfg.lambda_bar;
-  op.elastic = cfg.elastic;
-  op.use_fft = cfg.deformation == DeformationMethod::Fft;
-  op.waviness = {cfg.waviness_amplitude, cfg.waviness_wavelength, cfg.waviness_angle_deg};
-  op.face_mean = cfg.face_mean;
-  const reynolds::RelaxationSettings relax = relaxation_for(cfg.relaxation, grid.h());
+void ImpactProblem::Impl::set_time_coefficients(double b0) { hierarchy.set_time_step(dT, b0); }
 
-  Grid2D g = grid;
-  std::vector<multigrid::FasLevel*> raw;
-  while (true) {
-    levels.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, relax));
-    raw.push_back(levels.back().get());
-    if (g.full().n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
-    g = g.coarser();
-  }
-  multigrid::FasSettings fas;
-  fas.pre_sweeps = cfg.pre_sweeps;
-  fas.post_sweeps = cfg.post_sweeps;
-  fas.cycle_index = cfg.cycle == CycleType::W ? 2 : 1;
-  solver = std::make_unique<multigrid::FasSolver>(std::move(raw), fas);
-}
-
-void ImpactProblem::Impl::set_time_coefficients(double b0) {
-  for (auto& level : levels) level->op().set_time_step(dT, b0);
-}
-
-void ImpactProblem::Impl::set_delta(double Delta) {
-  for (auto& level : levels) level->op().set_delta(Delta);
-}
+void ImpactProblem::Impl::set_delta(double Delta) { hierarchy.set_delta(Delta); }
 
 double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball, double force_guess) {
   bdf = step == 1 ? kBdf1 : kBdf2;  // BDF2 needs two earlier levels: BDF1 starts it
@@ -261,15 +240,15 @@ double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) 
   // (attempt_damping), up to kMaxRetries times.  If no attempt converges, the attempt
   // with the smallest residual is kept and the step is counted as unconverged.
   const Field start = solver->solution();
-  const double start_delta = levels.front()->op().delta();
-  reynolds::ReynoldsOperator& fine = levels.front()->op();
+  const double start_delta = hierarchy.finest().delta();
+  reynolds::ReynoldsOperator& fine = hierarchy.finest();
   Field best;
   double best_residual = std::numeric_limits<double>::infinity();
   double best_delta = start_delta;
   int best_cycles = 0;
   for (int attempt = 0;; ++attempt) {
     const double damping = attempt_damping(attempt, cfg.retry_damping);
-    for (auto& level : levels) level->smoother().set_damping(damping);
+    hierarchy.set_damping(damping);
     // The retries also guard against coarse-grid corrections that make the
     // residual worse (multigrid/Fas.hpp): on 513^2 the coarse grids cannot
     // represent the spike, and their corrections blew steps up.
@@ -323,13 +302,13 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   solver->full_multigrid();
   for (int c = 1; c <= cfg.max_cycles && solver->residual_norm() >= cfg.tolerance; ++c)
     solver->cycle();
-  reynolds::ReynoldsOperator& fine = levels.front()->op();
+  reynolds::ReynoldsOperator& fine = hierarchy.finest();
   fine.update_coefficients(solver->solution());
   return fine.force(solver->solution());
 }
 
 bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
-  reynolds::ReynoldsOperator& fine = levels.front()->op();
+  reynolds::ReynoldsOperator& fine = hierarchy.finest();
   const double initial_residual = start_residual;  // every attempt starts from the same state
   if (monitor) monitor(step, 0, initial_residual);
   for (int c = 1; c <= cfg.max_cycles; ++c) {
@@ -350,7 +329,7 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
 
 StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force) const {
   const Field& P = solver->solution(0);
-  const Field& H = levels.front()->op().film();
+  const Field& H = hierarchy.finest().film();
   const int n = grid.n;
   const int first = grid.first_interior();
   const int c = grid.mirrored ? 0 : (n - 1) / 2;  // the centre X = Y = 0
@@ -373,17 +352,8 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, dou
   r.cycles = last_cycles;
   r.residual = last_residual;
   r.attempts = last_attempts;
-  r.work = work_units() - work_at_step_start;
+  r.work = hierarchy.work_units() - work_at_step_start;
   return r;
-}
-
-double ImpactProblem::Impl::work_units() const {
-  const double finest = static_cast<double>(levels.front()->grid().size());
-  double work = 0.0;
-  for (const auto& level : levels)
-    work += static_cast<double>(level->op().deformation_evaluations()) *
-            static_cast<double>(level->grid().size()) / finest;
-  return work;
 }
 
 void ImpactProblem::Impl::report_step(ImpactObserver& observer, const StepRecord& record,
@@ -403,8 +373,8 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   const double initial_force = solve_initial_pressure();
   check_initial_state(initial_force, solver->residual_norm(), cfg);
   run.ball.A = kForceToAcceleration * initial_force;
-  const Field& H0 = levels.front()->op().film();
-  const Field& rho0 = levels.front()->op().density();
+  const Field& H0 = hierarchy.finest().film();
+  const Field& rho0 = hierarchy.finest().density();
   for (std::size_t k = 0; k < H0.size(); ++k) rhoH_now[k] = rho0[k] * H0[k];
   rhoH_old = rhoH_now;
   summary = RunSummary{};
@@ -436,13 +406,13 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
 }
 
 double ImpactProblem::Impl::elastic_energy_now() const {
-  const reynolds::ReynoldsOperator& fine = levels.front()->op();
+  const reynolds::ReynoldsOperator& fine = hierarchy.finest();
   return elastic_energy(grid, solver->solution(0), fine.deformation());
 }
 
 std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& record,
                                                               RunProgress& run) {
-  const reynolds::ReynoldsOperator& fine = levels.front()->op();
+  const reynolds::ReynoldsOperator& fine = hierarchy.finest();
   check_step_physics(record, run.bounds, cfg, film_minimum(grid, solver->solution(0), fine.film()));
   if (record.p_max > 0.0) run.had_pressure = true;
   const double energy = elastic_energy_now();
@@ -482,14 +452,14 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   for (int step = run.first_step;; ++step) {
     // Linear extrapolation of the force is the initial guess of the new separation.
     const double guess = step > 2 ? 2.0 * run.force_now - run.force_before : run.force_now;
-    work_at_step_start = work_units();
+    work_at_step_start = hierarchy.work_units();
     const double force = solve_time_step(step, ball, guess);
     ball = newmark.advance(ball, force);
     summary.impulse += 0.5 * (run.force_now + force) * dT * kForceToAcceleration;
     run.force_before = run.force_now;
     run.force_now = force;
 
-    reynolds::ReynoldsOperator& fine = levels.front()->op();
+    reynolds::ReynoldsOperator& fine = hierarchy.finest();
     const Field& H = fine.film();
     const Field& rho = fine.density();
     rhoH_old = rhoH_now;

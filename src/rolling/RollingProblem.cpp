@@ -8,7 +8,7 @@
 #include <numbers>
 
 #include "multigrid/Fas.hpp"
-#include "reynolds/ReynoldsFasLevel.hpp"
+#include "reynolds/ReynoldsHierarchy.hpp"
 #include "rolling/FilmFormula.hpp"
 
 namespace ehlsim {
@@ -41,6 +41,17 @@ double value_at(const Field& f, const Grid2D& grid, double x, double y) {
          a * b * f(i + 1, j + 1);
 }
 
+reynolds::OperatorSettings operator_settings(const RollingConfig& c) {
+  reynolds::OperatorSettings op;
+  op.lambda_bar = c.lambda_bar;
+  op.elastic = c.elastic;
+  op.use_fft = c.deformation == DeformationMethod::Fft;
+  op.face_mean = c.face_mean;
+  op.wedge = 1.0;
+  op.curvature_ratio = c.D;
+  return op;
+}
+
 Lubricant lubricant_of(const RollingConfig& c) {
   Lubricant lub = c.lubricant;
   lub.alpha_bar = c.alpha_bar;
@@ -56,7 +67,6 @@ Grid2D RollingProblem::grid_of(const RollingConfig& c) {
 struct RollingProblem::Impl {
   explicit Impl(const RollingConfig& config);
 
-  void setup_hierarchy();
   /// The Hertz pressure on the coarsest grid and H0 from the film formula.
   void start_from_hertz();
   /// Cycles on `level` (the finest of the sub-hierarchy) with H0 updated
@@ -66,54 +76,32 @@ struct RollingProblem::Impl {
   bool solve_stage(int level, int cycles, const CycleMonitor& monitor);
   void update_h0(int level);
   void set_h0(double H0);
-  [[nodiscard]] double work_units() const;
   [[nodiscard]] RollingResult result() const;
 
   RollingConfig cfg;
   Grid2D grid;
-  std::vector<std::unique_ptr<ReynoldsFasLevel>> levels;
-  std::unique_ptr<multigrid::FasSolver> solver;
+  ReynoldsHierarchy hierarchy;
+  multigrid::FasSolver* solver;  ///< hierarchy's
   double h0 = 0.0;
   std::vector<RollingCycle> history;
 };
 
-RollingProblem::Impl::Impl(const RollingConfig& config) : cfg(config), grid(grid_of(config)) {
-  setup_hierarchy();
-}
-
-void RollingProblem::Impl::setup_hierarchy() {
-  reynolds::OperatorSettings op;
-  op.lambda_bar = cfg.lambda_bar;
-  op.elastic = cfg.elastic;
-  op.use_fft = cfg.deformation == DeformationMethod::Fft;
-  op.face_mean = cfg.face_mean;
-  op.wedge = 1.0;
-  op.curvature_ratio = cfg.D;
-  const Lubricant lubricant = lubricant_of(cfg);
-  Grid2D g = grid;
-  std::vector<multigrid::FasLevel*> raw;
-  while (true) {
-    levels.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, cfg.relaxation));
-    levels.back()->op().set_time_step(1.0, 0.0);  // steady: no squeeze term
-    raw.push_back(levels.back().get());
-    if (g.n <= cfg.coarsest_points || !g.coarser().coarsenable()) break;
-    g = g.coarser();
-  }
-  multigrid::FasSettings fas;
-  fas.pre_sweeps = cfg.pre_sweeps;
-  fas.post_sweeps = cfg.post_sweeps;
-  fas.cycle_index = cfg.cycle == CycleType::W ? 2 : 1;
-  solver = std::make_unique<multigrid::FasSolver>(std::move(raw), fas);
+RollingProblem::Impl::Impl(const RollingConfig& config)
+    : cfg(config),
+      grid(grid_of(config)),
+      hierarchy(grid, lubricant_of(config), operator_settings(config), config.relaxation, config),
+      solver(&hierarchy.solver()) {
+  hierarchy.set_time_step(1.0, 0.0);  // steady: no squeeze term
 }
 
 void RollingProblem::Impl::set_h0(double H0) {
   h0 = H0;
-  for (auto& level : levels) level->op().set_delta(H0);
+  hierarchy.set_delta(H0);
 }
 
 void RollingProblem::Impl::start_from_hertz() {
   const int coarsest = solver->num_levels() - 1;
-  ReynoldsFasLevel& level = *levels[coarsest];
+  ReynoldsFasLevel& level = hierarchy.level(coarsest);
   const Grid2D& g = level.grid();
   Field& P = solver->solution(coarsest);
   for (int j = 1; j < g.n - 1; ++j) {
@@ -130,12 +118,12 @@ void RollingProblem::Impl::start_from_hertz() {
 }
 
 void RollingProblem::Impl::update_h0(int level) {
-  const double force = levels[level]->op().force(solver->solution(level));
+  const double force = hierarchy.level(level).op().force(solver->solution(level));
   set_h0(h0 + cfg.h0_relaxation * (force - kRollingLoad) / kLoadStiffness);
 }
 
 bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor& monitor) {
-  reynolds::ReynoldsOperator& op = levels[level]->op();
+  reynolds::ReynoldsOperator& op = hierarchy.level(level).op();
   for (int c = 1; c <= cycles; ++c) {
     solver->cycle(level);
     update_h0(level);
@@ -146,7 +134,7 @@ bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor
     record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
     record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
     record.H0 = h0;
-    record.work = work_units();
+    record.work = hierarchy.work_units();
     history.push_back(record);
     if (monitor) monitor(record);
     const double first = history[history.size() - static_cast<std::size_t>(c)].residual;
@@ -168,7 +156,7 @@ bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor
   const Field start = solver->solution(level);
   const double start_h0 = h0;
   for (std::size_t attempt = 0;; ++attempt) {
-    for (auto& l : levels) l->smoother().set_damping(kAttemptDamping[attempt]);
+    hierarchy.set_damping(kAttemptDamping[attempt]);
     try {
       return converge_on(level, cycles, monitor);
     } catch (const StageDiverged&) {
@@ -179,17 +167,8 @@ bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor
   }
 }
 
-double RollingProblem::Impl::work_units() const {
-  const double finest = static_cast<double>(levels.front()->grid().size());
-  double work = 0.0;
-  for (const auto& level : levels)
-    work += static_cast<double>(level->op().deformation_evaluations()) *
-            static_cast<double>(level->grid().size()) / finest;
-  return work;
-}
-
 RollingResult RollingProblem::Impl::result() const {
-  const reynolds::ReynoldsOperator& op = levels.front()->op();
+  const reynolds::ReynoldsOperator& op = hierarchy.finest();
   RollingResult r;
   r.grid = grid;
   r.P = solver->solution(0);
@@ -215,7 +194,7 @@ RollingResult RollingProblem::Impl::result() const {
   r.residual = history.back().residual;
   r.force_error = history.back().force_error;
   r.cycles = history.back().cycle;
-  r.work = work_units();
+  r.work = hierarchy.work_units();
   return r;
 }
 
