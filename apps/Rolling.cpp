@@ -21,16 +21,8 @@ using namespace ehlsim;
 CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options) {
   CLI::App* cmd = app.add_subcommand(
       "rolling", "Solve one steady rolling (or rolling and sliding) EHL point contact.");
-  cmd->add_option("config", options.config_file,
-                  "TOML file with the case (default: a ball, M = 100, L = 10)");
-  cmd->add_option("-o,--out", options.out_dir,
-                  "run directory for fields.nc, the profiles and run.json (created if missing)")
-      ->capture_default_str();
-  cmd->add_option("--set", options.overrides,
-                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
-      ->type_name("KEY=VALUE")
-      ->allow_extra_args(false)
-      ->take_all();
+  cli::add_case_options(*cmd, options, "a ball, M = 100, L = 10",
+                        "fields.nc, the profiles and run.json");
   cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
   cmd->footer("\n" + describe_parameters(rolling_parameters()));
   return cmd;
@@ -53,15 +45,9 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
 
 int run_rolling(const RollingOptions& options) {
   const InterruptGuard interrupts;
-  RollingConfig config;
-  try {
-    std::optional<std::filesystem::path> file;
-    if (!options.config_file.empty()) file = options.config_file;
-    config = load_rolling_config(file, options.overrides);
-  } catch (const ConfigError& e) {
-    cli::print_error(e.what());
-    return cli::kExitBadInput;
-  }
+  // Bad input throws ConfigError: exit 2 with its one line (main).
+  const RollingConfig config =
+      load_rolling_config(cli::config_path(options.config_file), options.overrides);
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   RunDirectory run_dir(options.out_dir);
   if (!options.quiet) print_rolling_case(config, options.out_dir);

@@ -4,11 +4,10 @@
 #include <string>
 #include <vector>
 
-struct RollingOptions {
-  std::string config_file;  ///< "" = the built-in default case
-  std::string out_dir = "rolling";
-  std::vector<std::string> overrides;
-  bool quiet = false;
+#include "Study.hpp"
+
+struct RollingOptions : cli::CaseOptions {
+  RollingOptions() { out_dir = "rolling"; }
 };
 
 CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options);

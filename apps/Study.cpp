@@ -70,6 +70,23 @@ CLI::Validator not_empty(const std::string& what) {
       "", "NOT_EMPTY");
 }
 
+void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
+                      const std::string& what_out) {
+  command.add_option("config", options.config_file,
+                     "TOML file with the case (default: " + default_case + ")");
+  command
+      .add_option("-o,--out", options.out_dir,
+                  "run directory for " + what_out + " (created if missing)")
+      ->check(not_empty("a directory"))
+      ->capture_default_str();
+  command
+      .add_option("--set", options.overrides,
+                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
+      ->type_name("KEY=VALUE")
+      ->allow_extra_args(false)
+      ->take_all();
+}
+
 }  // namespace cli
 
 namespace {

@@ -2,6 +2,8 @@
 // `ehlsim study`: the pressure-spike study of the paper with one command
 // (apps/Study.cpp), and what the subcommands of ehlsim share.
 #include <CLI/CLI.hpp>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -16,6 +18,23 @@ inline constexpr int kExitBadInput = 2;
 /// path (a runaway value that reached the message unshortened, e.g. through
 /// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
 void print_error(std::string_view message);
+
+/// The CONFIG argument of a command: none when empty (the built-in case).
+inline std::optional<std::filesystem::path> config_path(const std::string& argument) {
+  if (argument.empty()) return std::nullopt;
+  return std::filesystem::path(argument);
+}
+
+/// The options every simulation command has: [CONFIG], -o/--out DIR,
+/// --set KEY=VALUE (repeatable), -q/--quiet; `what_out` lists the files.
+struct CaseOptions {
+  std::string config_file;  ///< "" = the built-in default case
+  std::string out_dir;
+  std::vector<std::string> overrides;
+  bool quiet = false;
+};
+void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
+                      const std::string& what_out);
 
 /// Refuses an empty argument of an option that names a file or directory
 /// ("--out: must name a directory, not be empty").

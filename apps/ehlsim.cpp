@@ -60,29 +60,17 @@ using cli::print_error;
 // ehlsim impact
 // ---------------------------------------------------------------------------
 
-struct ImpactOptions {
-  std::string config_file;  ///< "" = the built-in default case
-  std::string out_dir = "run";
-  std::vector<std::string> overrides;
-  std::string restart_file;  ///< "" = start at Delta0
-  bool quiet = false;
+struct ImpactOptions : cli::CaseOptions {
+  ImpactOptions() { out_dir = "run"; }
+  std::string restart_file;        ///< "" = start at Delta0
   std::string program = "ehlsim";  ///< argv[0], for the resume command
 };
 
 CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
   CLI::App* cmd = app.add_subcommand(
       "impact", "Simulate one lubricated ball impact on a flat (Lubrecht & Venner 2022).");
-  cmd->add_option("config", options.config_file,
-                  "TOML file with the case (default: the paper's case M = 100, L = 10)");
-  cmd->add_option("-o,--out", options.out_dir,
-                  "run directory for timeseries.csv, fields.nc and run.json (created if missing)")
-      ->check(cli::not_empty("a directory"))
-      ->capture_default_str();
-  cmd->add_option("--set", options.overrides,
-                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
-      ->type_name("KEY=VALUE")
-      ->allow_extra_args(false)
-      ->take_all();
+  cli::add_case_options(*cmd, options, "the paper's case M = 100, L = 10",
+                        "timeseries.csv, fields.nc and run.json");
   cmd->add_option("--restart", options.restart_file,
                   "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
                   "solver.*, output.*, spike.*, time.T_end and time.max_steps may differ")
@@ -260,23 +248,10 @@ nlohmann::json invocation_json(const ImpactOptions& options,
 int run_impact(const ImpactOptions& options) {
   // First: a signal during the set-up also ends the run cleanly (after its first step).
   const InterruptGuard interrupts;
-  ImpactConfig config;
-  try {
-    std::optional<std::filesystem::path> file;
-    if (!options.config_file.empty()) file = options.config_file;
-    config = load_config(file, options.overrides);
-  } catch (const ConfigError& e) {
-    print_error(e.what());
-    return kExitBadInput;
-  }
+  // Bad input throws ConfigError: exit 2 with its one line (main).
+  const ImpactConfig config = load_config(cli::config_path(options.config_file), options.overrides);
   // Before anything big is allocated or the run directory is made.
-  MemoryBudget memory;
-  try {
-    memory = check_run_memory(config, available_memory_mb());
-  } catch (const ConfigError& e) {
-    print_error(e.what());
-    return kExitBadInput;
-  }
+  const MemoryBudget memory = check_run_memory(config, available_memory_mb());
   std::optional<Checkpoint> checkpoint;
   if (!options.restart_file.empty()) {
     try {

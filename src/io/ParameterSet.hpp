@@ -101,6 +101,10 @@ class Inputs {
 
 // Declarations both modes share, each with the defaults of its mode.
 
+/// physical.eta0 and physical.alpha: the lubricant of a case in SI units.
+void add_physical_lubricant_parameters(std::vector<ParameterSpec>& specs);
+/// body.elastic and grid.points (`default_points` per side).
+void add_body_and_grid_points_parameters(std::vector<ParameterSpec>& specs, int default_points);
 /// [lubricant]: the viscosity and density laws and their inputs.
 void add_lubricant_parameters(std::vector<ParameterSpec>& specs);
 /// The lubricant of validated [lubricant] inputs.  `alpha_bar` comes from the

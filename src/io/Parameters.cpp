@@ -261,19 +261,11 @@ std::vector<ParameterSpec> build_registry() {
       real("physical.E2", no_default, "none", above(0), none, "Pa", "Young's modulus of the flat"));
   r.push_back(real("physical.nu2", no_default, "none", at_least(0), at_most(kPoissonMax), "",
                    "Poisson's ratio of the flat"));
-  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
-                   "ambient viscosity of the lubricant"));
-  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
-                   "pressure-viscosity coefficient (alpha_bar = alpha ph*)"));
+  add_physical_lubricant_parameters(r);
   r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
   add_lubricant_parameters(r);
-  // [body]
-  r.push_back(
-      boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
-  // [grid]
-  r.push_back(integer("grid.points", kDefaultGridPoints, at_least(kMinGridPoints),
-                      at_most(kMaxGridPoints), true, "points per side of the square grid"));
+  add_body_and_grid_points_parameters(r, kDefaultGridPoints);
   r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), none, "",
                    "the domain is [-half_width, half_width]^2 (unit: a*)"));
   // [time]
@@ -818,6 +810,22 @@ SolverSettings assemble_solver(const Inputs& in) {
                         c.pre_sweeps, c.post_sweeps));
   }
   return c;
+}
+
+void add_physical_lubricant_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
+  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
+                   "ambient viscosity of the lubricant"));
+  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
+                   "pressure-viscosity coefficient (alpha_bar = alpha times the Hertz pressure)"));
+}
+
+void add_body_and_grid_points_parameters(std::vector<ParameterSpec>& r, int default_points) {
+  r.push_back(
+      boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
+  r.push_back(integer("grid.points", default_points, at_least(kMinGridPoints),
+                      at_most(kMaxGridPoints), true, "points per side of the square grid"));
 }
 
 void add_lubricant_parameters(std::vector<ParameterSpec>& r) {

@@ -39,16 +39,9 @@ std::vector<ParameterSpec> build_rolling_registry() {
                    "isothermal Newtonian film)"));
   r.push_back(real("physical.reduced_modulus", no_default, "none", above(0), none, "Pa",
                    "reduced modulus E'"));
-  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
-                   "ambient viscosity of the lubricant"));
-  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
-                   "pressure-viscosity coefficient"));
+  add_physical_lubricant_parameters(r);
   add_lubricant_parameters(r);
-  r.push_back(
-      boolean("body.elastic", true, "elastic deformation of the surfaces (false: rigid bodies)"));
-  // [grid]
-  r.push_back(integer("grid.points", kDefaults.grid_points, at_least(kMinGridPoints),
-                      at_most(kMaxGridPoints), true, "points per side of the square grid"));
+  add_body_and_grid_points_parameters(r, kDefaults.grid_points);
   r.push_back(real("grid.x_min", kDefaults.x_min, "", below(0), none, "", "inlet edge (unit: a)"));
   r.push_back(real("grid.x_max", kDefaults.x_max, "", above(0), none, "", "outlet edge"));
   r.push_back(real("grid.y_min", kDefaults.y_min, "", below(0), none, "",
