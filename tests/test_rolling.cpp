@@ -142,6 +142,19 @@ TEST(RollingCli, RejectsANonSquareDomain) {
   EXPECT_NE(r.err.find("must equal x_max - x_min"), std::string::npos) << r.err;
 }
 
+TEST(RollingCli, TakesAnotherSquareDomain) {
+  const RollingConfig c = load_rolling_config(
+      std::nullopt, {"grid.x_min=-6", "grid.x_max=1.5", "grid.y_min=-3.75", "grid.y_max=3.75"});
+  const Grid2D g = RollingProblem::grid_of(c);
+  EXPECT_DOUBLE_EQ(g.x(0), -6.0);
+  EXPECT_DOUBLE_EQ(g.x(g.n - 1), 1.5);
+  EXPECT_DOUBLE_EQ(g.y(0), -3.75);
+  EXPECT_DOUBLE_EQ(g.y(g.n - 1), 3.75);
+  const auto r = testing::ehlsim("rolling --quiet --set grid.x_min=0.5 --out /nonexistent/x");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("grid.x_min = 0.5: must be < 0"), std::string::npos) << r.err;
+}
+
 TEST(RollingCli, HelpListsItsOwnKeys) {
   const auto r = testing::ehlsim("rolling --help");
   EXPECT_EQ(r.exit_code, 0);

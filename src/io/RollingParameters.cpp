@@ -42,9 +42,9 @@ std::vector<ParameterSpec> build_rolling_registry() {
   add_physical_lubricant_parameters(r);
   add_lubricant_parameters(r);
   add_body_and_grid_points_parameters(r, kDefaults.grid_points);
-  r.push_back(real("grid.x_min", kDefaults.x_min, "", below(0), none, "", "inlet edge (unit: a)"));
+  r.push_back(real("grid.x_min", kDefaults.x_min, "", none, below(0), "", "inlet edge (unit: a)"));
   r.push_back(real("grid.x_max", kDefaults.x_max, "", above(0), none, "", "outlet edge"));
-  r.push_back(real("grid.y_min", kDefaults.y_min, "", below(0), none, "",
+  r.push_back(real("grid.y_min", kDefaults.y_min, "", none, below(0), "",
                    "side edge; y_max - y_min = x_max - x_min (square cells on a square grid)"));
   r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), none, "", "other side edge"));
   // [solver]
