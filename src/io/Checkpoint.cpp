@@ -146,6 +146,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
+  require_netcdf4_file(path, "read checkpoint");
   NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
   int version = 0;

@@ -11,4 +11,12 @@ namespace ehlsim {
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,
                   std::string_view what);
 
+/// Throws std::runtime_error "cannot <action> '<path>': not a NetCDF-4 file
+/// ..." unless the file starts with the HDF5 signature.  ehlsim writes only
+/// NetCDF-4, and checking before nc_open keeps other bytes away from the
+/// classic-format parser of libnetcdf, which trusts the sizes in a header (a
+/// 66-byte file made it ask for 2.7 GB: docs/validation.md, "Fuzzing").  A file
+/// that cannot be opened is left to nc_open and its message.
+void require_netcdf4_file(const std::filesystem::path& path, std::string_view action);
+
 }  // namespace ehlsim
