@@ -1,6 +1,10 @@
 #pragma once
 // The readers under test take a path: each execution writes the fuzzer's bytes
-// to one file per process, in /dev/shm when there is one (no disk traffic).
+// to a new file, in /dev/shm when there is one (no disk traffic).  A new name
+// (so a new inode) per execution keeps the inputs independent: HDF5 keeps
+// some corrupt files open after nc_open has failed, and a later H5Fopen of
+// the same inode would reuse that file's cached metadata instead of reading
+// the new bytes (the first "crash" found was such a mix of two inputs).
 #include <unistd.h>
 
 #include <cstddef>
@@ -20,17 +24,17 @@ class FuzzFile {
     const std::filesystem::path shm = "/dev/shm";
     const auto dir =
         std::filesystem::is_directory(shm, ec) ? shm : std::filesystem::temp_directory_path();
-    path_ = dir / ("ehlsim_fuzz_" + tag + "_" + std::to_string(::getpid()));
+    base_ = dir / ("ehlsim_fuzz_" + tag + "_" + std::to_string(::getpid()) + "_");
   }
-  ~FuzzFile() {
-    std::error_code ec;
-    std::filesystem::remove(path_, ec);
-  }
+  ~FuzzFile() { remove(); }
   FuzzFile(const FuzzFile&) = delete;
   FuzzFile& operator=(const FuzzFile&) = delete;
 
-  /// Replaces the file's content with `size` bytes from `data`.
-  const std::filesystem::path& write(const std::uint8_t* data, std::size_t size) const {
+  /// Removes the previous file and writes `size` bytes from `data` to a new one.
+  const std::filesystem::path& write(const std::uint8_t* data, std::size_t size) {
+    remove();
+    path_ = base_;
+    path_ += std::to_string(++executions_);
     std::FILE* file = std::fopen(path_.c_str(), "wb");
     if (file == nullptr) throw std::runtime_error("fuzz: cannot create " + path_.string());
     const bool written = size == 0 || std::fwrite(data, 1, size, file) == size;
@@ -40,7 +44,14 @@ class FuzzFile {
   }
 
  private:
+  void remove() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove(path_, ec);
+  }
+
+  std::filesystem::path base_;
   std::filesystem::path path_;
+  unsigned long long executions_ = 0;
 };
 
 }  // namespace ehlsim::fuzz

@@ -10,7 +10,7 @@
 #include "io/Checkpoint.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const ehlsim::fuzz::FuzzFile file("checkpoint.nc");
+  static ehlsim::fuzz::FuzzFile file("checkpoint.nc");
   const auto& path = file.write(data, size);
   try {
     const ehlsim::Checkpoint checkpoint = ehlsim::read_checkpoint(path);

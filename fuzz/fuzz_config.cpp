@@ -49,7 +49,7 @@ ConfigInput split(std::string_view bytes) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const ehlsim::fuzz::FuzzFile file("config.toml");
+  static ehlsim::fuzz::FuzzFile file("config.toml");
   const ConfigInput input = split(std::string_view(reinterpret_cast<const char*>(data), size));
   std::optional<std::filesystem::path> path;
   if (input.file_text) {

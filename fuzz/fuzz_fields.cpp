@@ -15,7 +15,7 @@ constexpr std::size_t kSnapshotsRead = 2;
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const ehlsim::fuzz::FuzzFile file("fields.nc");
+  static ehlsim::fuzz::FuzzFile file("fields.nc");
   const auto& path = file.write(data, size);
   try {
     const ehlsim::FieldReader reader(path);

@@ -88,6 +88,15 @@ class NcFile {
   std::string_view action_;
 };
 
+/// Reads the one value of a global attribute (nc_get_att would write as many
+/// values as the file holds into `value`).
+template <class Value, class Get>
+void read_single_value(const NcFile& nc, const std::filesystem::path& path, const char* name,
+                       Value& value, Get get) {
+  require_single_value_attribute(nc.id, name, "read checkpoint", path);
+  nc.check(get(nc.id, NC_GLOBAL, name, &value), name);
+}
+
 std::string read_text_attribute(const NcFile& nc, const char* name) {
   std::size_t length = 0;
   nc.check(nc_inq_attlen(nc.id, NC_GLOBAL, name, &length), name);
@@ -150,7 +159,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
   int version = 0;
-  if (nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version) != NC_NOERR ||
+  std::size_t version_values = 0;
+  if (nc_inq_attlen(nc.id, NC_GLOBAL, "format_version", &version_values) != NC_NOERR ||
+      version_values != 1 ||
+      nc_get_att_int(nc.id, NC_GLOBAL, "format_version", &version) != NC_NOERR ||
       read_text_attribute(nc, "title") != kFormatName) {
     throw std::runtime_error(fmt::format("'{}' is not an ehlsim checkpoint (no \"{}\" title)",
                                          path.string(), kFormatName));
@@ -169,19 +181,29 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   }
   ImpactState& s = c.state;
   for_each_scalar(s, [&](const char* name, double& value) {
-    nc.check(nc_get_att_double(nc.id, NC_GLOBAL, name, &value), name);
+    read_single_value(nc, path, name, value, nc_get_att_double);
   });
   for_each_integer(s, [&](const char* name, int& value) {
-    nc.check(nc_get_att_int(nc.id, NC_GLOBAL, name, &value), name);
+    read_single_value(nc, path, name, value, nc_get_att_int);
   });
   int had_pressure = 0;
-  nc.check(nc_get_att_int(nc.id, NC_GLOBAL, "had_pressure", &had_pressure), "had_pressure");
+  read_single_value(nc, path, "had_pressure", had_pressure, nc_get_att_int);
   s.had_pressure = had_pressure != 0;
 
   int dim_x = -1;
+  int dim_y = -1;
   std::size_t n = 0;
+  std::size_t n_y = 0;
   nc.check(nc_inq_dimid(nc.id, "x", &dim_x), "dimension x");
   nc.check(nc_inq_dimlen(nc.id, dim_x, &n), "dimension x");
+  nc.check(nc_inq_dimid(nc.id, "y", &dim_y), "dimension y");
+  nc.check(nc_inq_dimlen(nc.id, dim_y, &n_y), "dimension y");
+  if (n_y != n || n < static_cast<std::size_t>(kMinGridPoints) ||
+      n > static_cast<std::size_t>(kMaxGridPoints)) {
+    throw std::runtime_error(fmt::format(
+        "checkpoint '{}': its fields have {} x {} points; ehlsim writes n x n, n between {} and {}",
+        path.string(), n_y, n, kMinGridPoints, kMaxGridPoints));
+  }
   double half_width = 0.0;
   try {
     half_width = c.parameters.at("grid").at("half_width").get<double>();
@@ -189,11 +211,17 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     throw std::runtime_error(
         fmt::format("checkpoint '{}': its parameters have no grid.half_width", path.string()));
   }
+  if (!(std::isfinite(half_width) && half_width > 0.0)) {
+    throw std::runtime_error(
+        fmt::format("checkpoint '{}': its grid.half_width = {} is not a positive number",
+                    path.string(), half_width));
+  }
   const Grid2D grid(static_cast<int>(n), half_width);
   for_each_field(s, [&](const char* name, const char*, Field& f) {
     f = Field(grid);
     int var = -1;
     nc.check(nc_inq_varid(nc.id, name, &var), name);
+    require_variable_dimensions(nc.id, var, {dim_y, dim_x}, "read checkpoint", path);
     nc.check(nc_get_var_double(nc.id, var, f.data()), name);
   });
   return c;
