@@ -14,6 +14,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
   python3-matplotlib python3-numpy            # figures (Debian's own python3)
   clang-format            # the layout check of .ci/run
+  clang libclang-rt-14-dev libomp-dev  # the libFuzzer targets of fuzz/ (clang, its sanitizer runtimes, OpenMP)
+  llvm                    # llvm-symbolizer: file and line in sanitizer reports
 )
 
 missing=()
