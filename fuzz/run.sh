@@ -30,7 +30,7 @@ LIMITS=(-timeout=10 -rss_limit_mb=2048 -detect_leaks=0)
 # libstdc++ and libFuzzer is in libhdf5 or libnetcdf, else "ehlsim".
 culprit() {
   grep -E '^ +#[0-9]+ 0x' "$1" |
-    grep -vE '__sanitizer|__asan|__ubsan|__lsan|__interceptor|fuzzer::|libc\.so|libstdc\+\+|in (malloc|calloc|realloc|memcpy|memmove|strdup) ' |
+    grep -vE '__sanitizer|__asan|__ubsan|__lsan|__interceptor|fuzzer::|libc\.so|libstdc\+\+|nptl/|signal/|stdlib/|in (malloc|calloc|realloc|memcpy|memmove|strdup) ' |
     head -n 1 | grep -qE 'libhdf5|libnetcdf' && echo library || echo ehlsim
 }
 
