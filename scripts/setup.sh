@@ -16,6 +16,8 @@ PACKAGES=(
   python3-matplotlib python3-numpy            # figures (Debian's own python3)
   clang-format            # the layout check of .ci/run
   paraview python3-paraview xvfb xauth  # the headless ParaView test of fields.nc (pvbatch under xvfb-run)
+  clang libclang-rt-14-dev libomp-dev  # the libFuzzer targets of fuzz/ (clang, its sanitizer runtimes, OpenMP)
+  llvm                    # llvm-symbolizer: file and line in sanitizer reports
 )
 
 missing=()

@@ -2,6 +2,7 @@
 // echo), the atomic writers (CSV, NetCDF, JSON), the progress line, the
 // RunOutput observer, the run directory transaction and its lock, and the
 // signal flag.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <netcdf.h>
 #include <unistd.h>
@@ -28,6 +29,7 @@
 #include "impact/Scaling.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
+#include "io/FieldReader.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Interrupt.hpp"
 #include "io/MemoryGuard.hpp"
@@ -1057,6 +1059,173 @@ TEST(MemoryGuard, ReadsTheAvailableMemoryOfThisMachine) {
   const std::optional<double> available = available_memory_mb();
   ASSERT_TRUE(available.has_value());
   EXPECT_GT(*available, 0.0);
+}
+
+// ---------------------------------------------------------------------------
+// Damaged NetCDF files (fuzz/, docs/validation.md "Fuzzing and sanitizers"):
+// the readers answer with a std::runtime_error naming the file, never a crash
+// or another exception.
+// ---------------------------------------------------------------------------
+
+/// A checkpoint the readers accept, on a 9^2 grid.
+fs::path write_valid_checkpoint(const fs::path& path,
+                                nlohmann::json parameters = effective_parameters_json(load_config(
+                                    std::nullopt, {"grid.points=9", "solver.coarsest_points=5"}))) {
+  const Grid2D grid(9, 1.5);
+  ImpactState s;
+  s.step = 3;
+  s.summary.steps = 3;
+  s.ball = {1.125, 0.5, -1.0, 0.0};  // T = step x dT (3 x 0.375)
+  for (Field* f : {&s.P, &s.P_before}) *f = Field(grid, 0.0);
+  for (Field* f : {&s.rhoH, &s.rhoH_before}) *f = Field(grid, 1.0);
+  write_checkpoint(path, s, parameters);
+  return path;
+}
+
+/// Runs `change(ncid)` on the open file in define mode.
+template <class Change>
+void edit_netcdf(const fs::path& path, Change change) {
+  int ncid = -1;
+  ASSERT_EQ(nc_open(path.c_str(), NC_WRITE, &ncid), NC_NOERR);
+  ASSERT_EQ(nc_redef(ncid), NC_NOERR);
+  change(ncid);
+  ASSERT_EQ(nc_close(ncid), NC_NOERR);
+}
+
+/// The message of the std::runtime_error `read` throws ("" if none).
+template <class Read>
+std::string read_error(Read read) {
+  try {
+    read();
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string fields_error(const fs::path& path) {
+  return read_error([&] { const FieldReader reader(path); });
+}
+
+TEST(DamagedFiles, OnlyNetcdf4IsRead) {
+  TempDir dir;
+  // A classic-format file: libnetcdf's parser of that format is kept away
+  // from untrusted bytes (a 66-byte header made it ask for 2.7 GB).
+  const fs::path classic = dir / "classic.nc";
+  int ncid = -1;
+  ASSERT_EQ(nc_create(classic.c_str(), NC_CLOBBER, &ncid), NC_NOERR);
+  ASSERT_EQ(nc_close(ncid), NC_NOERR);
+  const fs::path oom = fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-regressions" / "checkpoint" /
+                       "classic-header-asks-2.7GB.nc";
+  for (const fs::path& path : {classic, oom, write_file(dir / "empty.nc", "")}) {
+    for (const std::string& message : {checkpoint_error(path), fields_error(path)}) {
+      const std::string expected = fmt::format("'{}': not a NetCDF-4 file", path.string());
+      EXPECT_NE(message.find(expected), std::string::npos) << message;
+    }
+  }
+}
+
+TEST(DamagedFiles, CheckpointAttributeWithSeveralValues) {
+  TempDir dir;
+  const fs::path path = write_valid_checkpoint(dir / "checkpoint.nc");
+  ASSERT_EQ(checkpoint_error(path), "");
+  // nc_get_att_double would write three doubles into the one T of the state.
+  edit_netcdf(path, [](int ncid) {
+    const std::array<double, 3> values = {1.0, 2.0, 3.0};
+    ASSERT_EQ(nc_put_att_double(ncid, NC_GLOBAL, "T", NC_DOUBLE, 3, values.data()), NC_NOERR);
+  });
+  EXPECT_NE(checkpoint_error(path).find("field 'T' is not a single value of its type"),
+            std::string::npos)
+      << checkpoint_error(path);
+}
+
+TEST(DamagedFiles, CheckpointFieldOfAnotherShape) {
+  TempDir dir;
+  const fs::path path = write_valid_checkpoint(dir / "checkpoint.nc");
+  // P on (z, x) with 20 x 9 values: nc_get_var would fill 180 into a field of 81.
+  edit_netcdf(path, [](int ncid) {
+    int var = -1;
+    int dim_x = -1;
+    std::array<int, 2> dims{};
+    ASSERT_EQ(nc_inq_varid(ncid, "P", &var), NC_NOERR);
+    ASSERT_EQ(nc_rename_var(ncid, var, "P_saved"), NC_NOERR);
+    ASSERT_EQ(nc_inq_dimid(ncid, "x", &dim_x), NC_NOERR);
+    ASSERT_EQ(nc_def_dim(ncid, "z", 20, &dims[0]), NC_NOERR);
+    dims[1] = dim_x;
+    ASSERT_EQ(nc_def_var(ncid, "P", NC_DOUBLE, 2, dims.data(), &var), NC_NOERR);
+  });
+  EXPECT_NE(checkpoint_error(path).find("field 'P' has 20 x 9 values; the grid has 9 x 9 points"),
+            std::string::npos)
+      << checkpoint_error(path);
+}
+
+TEST(DamagedFiles, CheckpointGridMustBePositive) {
+  TempDir dir;
+  nlohmann::json parameters = effective_parameters_json(
+      load_config(std::nullopt, {"grid.points=9", "solver.coarsest_points=5"}));
+  parameters["grid"]["half_width"] = 0.0;
+  const fs::path path = write_valid_checkpoint(dir / "checkpoint.nc", parameters);
+  EXPECT_NE(checkpoint_error(path).find("has an impossible grid or time step (grid.points = 9, "
+                                        "grid.half_width = 0"),
+            std::string::npos)
+      << checkpoint_error(path);
+}
+
+TEST(DamagedFiles, FieldsCoordinateAndShapes) {
+  TempDir dir;
+  const auto write_fields = [&](const std::string& name) {
+    const fs::path path = dir / name;
+    FieldWriter w(path, Grid2D(9, 1.5), nlohmann::json::object());
+    w.append(0.5, Field(Grid2D(9, 1.5), 0.25), Field(Grid2D(9, 1.5), 1.0));
+    w.commit();
+    return path;
+  };
+  const fs::path valid = write_fields("valid.nc");
+  ASSERT_EQ(fields_error(valid), "");
+  // x from +1.5: the grid it implies has no positive half-width.
+  const fs::path flipped = write_fields("flipped.nc");
+  edit_netcdf(flipped, [](int ncid) {
+    int var = -1;
+    ASSERT_EQ(nc_enddef(ncid), NC_NOERR);
+    ASSERT_EQ(nc_inq_varid(ncid, "x", &var), NC_NOERR);
+    std::array<double, 9> X{};
+    for (std::size_t i = 0; i < X.size(); ++i) X[i] = 1.5 - 0.375 * static_cast<double>(i);
+    ASSERT_EQ(nc_put_var_double(ncid, var, X.data()), NC_NOERR);
+    ASSERT_EQ(nc_redef(ncid), NC_NOERR);
+  });
+  EXPECT_NE(fields_error(flipped).find("x starts at 1.5, not at a finite -half_width < 0"),
+            std::string::npos)
+      << fields_error(flipped);
+  // time on (x): nc_get_var would fill 9 times into a vector of 1.
+  const fs::path wrong_T = write_fields("wrong_T.nc");
+  edit_netcdf(wrong_T, [](int ncid) {
+    int var = -1;
+    int dim_x = -1;
+    ASSERT_EQ(nc_inq_varid(ncid, "time", &var), NC_NOERR);
+    ASSERT_EQ(nc_rename_var(ncid, var, "time_saved"), NC_NOERR);
+    ASSERT_EQ(nc_inq_dimid(ncid, "x", &dim_x), NC_NOERR);
+    ASSERT_EQ(nc_def_var(ncid, "time", NC_DOUBLE, 1, &dim_x, &var), NC_NOERR);
+  });
+  EXPECT_NE(fields_error(wrong_T).find("variable time must have the dimensions (time)"),
+            std::string::npos)
+      << fields_error(wrong_T);
+}
+
+TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
+  // Every input a fuzz target crashed on, kept in tests/fuzz-regressions/.
+  const fs::path root = fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-regressions";
+  int files = 0;
+  for (const auto& [target, read] :
+       std::vector<std::pair<std::string, std::string (*)(const fs::path&)>>{
+           {"checkpoint", checkpoint_error}, {"fields", fields_error}}) {
+    for (const auto& entry : fs::directory_iterator(root / target)) {
+      const std::string message = read(entry.path());
+      EXPECT_NE(message.find(entry.path().string()), std::string::npos)
+          << entry.path() << ": " << message;
+      ++files;
+    }
+  }
+  EXPECT_GE(files, 2);
 }
 
 // ---------------------------------------------------------------------------

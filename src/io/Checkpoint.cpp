@@ -96,6 +96,15 @@ class NcFile {
   std::string_view action_;
 };
 
+/// Reads the one value of a global attribute (nc_get_att would write as many
+/// values as the file holds into `value`).
+template <class Value, class Get>
+void read_single_value(const NcFile& nc, const std::filesystem::path& path, const char* name,
+                       Value& value, Get get) {
+  require_single_value_attribute(nc.id, name, "read checkpoint", path);
+  nc.check(get(nc.id, NC_GLOBAL, name, &value), name);
+}
+
 std::string read_text_attribute(const NcFile& nc, const char* name) {
   std::size_t length = 0;
   nc.check(nc_inq_attlen(nc.id, NC_GLOBAL, name, &length), name);
@@ -350,6 +359,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
+  require_netcdf4_file(path, "read checkpoint");
   NcFile nc(path, "read checkpoint");
   nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
   const CheckpointReader in{nc, path};

@@ -3,7 +3,12 @@
 #include <fmt/format.h>
 #include <netcdf.h>
 
+#include <algorithm>
+#include <array>
+#include <fstream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace ehlsim {
 
@@ -12,6 +17,58 @@ void check_netcdf(int status, std::string_view action, const std::filesystem::pa
   if (status != NC_NOERR) {
     throw std::runtime_error(
         fmt::format("cannot {} '{}': {}: {}", action, path.string(), what, nc_strerror(status)));
+  }
+}
+
+void require_netcdf4_file(const std::filesystem::path& path, std::string_view action) {
+  // The HDF5 format signature: the first 8 bytes of every NetCDF-4 file ehlsim writes.
+  constexpr std::array<char, 8> kSignature = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return;
+  std::array<char, kSignature.size()> head{};
+  in.read(head.data(), head.size());
+  if (in.gcount() == static_cast<std::streamsize>(head.size()) &&
+      std::equal(head.begin(), head.end(), kSignature.begin()))
+    return;
+  throw std::runtime_error(fmt::format(
+      "cannot {} '{}': not a NetCDF-4 file (ehlsim reads and writes NetCDF-4/HDF5 only; the "
+      "file does not start with the HDF5 signature)",
+      action, path.string()));
+}
+
+void require_variable_dimensions(int ncid, int var, std::initializer_list<int> dims,
+                                 std::string_view action, const std::filesystem::path& path) {
+  std::string name(NC_MAX_NAME + 1, '\0');
+  check_netcdf(nc_inq_varname(ncid, var, name.data()), action, path, "nc_inq_varname");
+  name.resize(name.find('\0'));
+  std::string expected;
+  for (const int dim : dims) {
+    std::string dim_name(NC_MAX_NAME + 1, '\0');
+    check_netcdf(nc_inq_dimname(ncid, dim, dim_name.data()), action, path, name);
+    expected += (expected.empty() ? "" : ", ") + dim_name.substr(0, dim_name.find('\0'));
+  }
+  int ndims = -1;
+  check_netcdf(nc_inq_varndims(ncid, var, &ndims), action, path, name);
+  bool same = ndims == static_cast<int>(dims.size());
+  if (same) {
+    std::vector<int> actual(dims.size());
+    check_netcdf(nc_inq_vardimid(ncid, var, actual.data()), action, path, name);
+    same = std::equal(actual.begin(), actual.end(), dims.begin());
+  }
+  if (!same) {
+    throw std::runtime_error(
+        fmt::format("cannot {} '{}': variable {} must have the dimensions ({})", action,
+                    path.string(), name, expected));
+  }
+}
+
+void require_single_value_attribute(int ncid, const char* name, std::string_view action,
+                                    const std::filesystem::path& path) {
+  std::size_t length = 0;
+  check_netcdf(nc_inq_attlen(ncid, NC_GLOBAL, name, &length), action, path, name);
+  if (length != 1) {
+    throw std::runtime_error(fmt::format("cannot {} '{}': attribute {} must hold one value, not {}",
+                                         action, path.string(), name, length));
   }
 }
 
