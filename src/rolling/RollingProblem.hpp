@@ -8,6 +8,7 @@
 // is carried up by full multigrid.
 #include <functional>
 #include <memory>
+#include <numbers>
 #include <stdexcept>
 #include <vector>
 
@@ -65,6 +66,6 @@ class RollingProblem {
 };
 
 /// The force balance of the Hertz units: Int P dX dY = 2 pi / 3.
-inline constexpr double kRollingLoad = 2.0 * 3.14159265358979323846 / 3.0;
+inline constexpr double kRollingLoad = 2.0 * std::numbers::pi / 3.0;
 
 }  // namespace ehlsim
