@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "grid/FieldExtrema.hpp"
 #include "reynolds/ReynoldsOperator.hpp"
 
 namespace ehlsim {
@@ -95,13 +96,8 @@ RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {
 }
 
 FilmMinimum film_minimum(const Grid2D& grid, const Field& P, const Field& H) {
-  FilmMinimum m{std::numeric_limits<double>::infinity(), 0.0, 0.0, 0.0};
-  for (int j = grid.first_interior(); j < grid.n - 1; ++j) {
-    for (int i = grid.first_interior(); i < grid.n - 1; ++i) {
-      if (H(i, j) < m.h) m = {H(i, j), grid.x(i), grid.y(j), P(i, j)};
-    }
-  }
-  return m;
+  const PointValue m = interior_minimum(grid, H);
+  return {m.value, m.x, m.y, P(m.i, m.j)};
 }
 
 void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactConfig& c,

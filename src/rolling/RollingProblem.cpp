@@ -7,6 +7,7 @@
 #include <iterator>
 #include <numbers>
 
+#include "grid/FieldExtrema.hpp"
 #include "multigrid/Fas.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
 #include "rolling/FilmFormula.hpp"
@@ -174,21 +175,14 @@ RollingResult RollingProblem::Impl::result() const {
   r.P = solver->solution(0);
   r.H = op.film();
   r.Hc = value_at(r.H, grid, 0.0, 0.0);
-  r.Hm = std::numeric_limits<double>::infinity();
-  for (int j = 1; j < grid.n - 1; ++j) {
-    for (int i = 1; i < grid.n - 1; ++i) {
-      if (r.H(i, j) < r.Hm) {
-        r.Hm = r.H(i, j);
-        r.X_Hm = grid.x(i);
-        r.Y_Hm = grid.y(j);
-      }
-      if (r.P(i, j) > r.P_max) {
-        r.P_max = r.P(i, j);
-        r.X_P_max = grid.x(i);
-        r.Y_P_max = grid.y(j);
-      }
-    }
-  }
+  const PointValue film = interior_minimum(grid, r.H);
+  const PointValue peak = interior_maximum(grid, r.P);
+  r.Hm = film.value;
+  r.X_Hm = film.x;
+  r.Y_Hm = film.y;
+  r.P_max = peak.value;
+  r.X_P_max = peak.x;
+  r.Y_P_max = peak.y;
   r.H0 = h0;
   r.history = history;
   r.residual = history.back().residual;
