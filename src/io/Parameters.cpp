@@ -154,6 +154,8 @@ constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
 constexpr std::string_view kLinesAlternating = "alternating";
 constexpr std::string_view kLinesX = "x";
+constexpr std::string_view kUpdatesPerSweep = "sweep";
+constexpr std::string_view kUpdatesPerColour = "colour";
 constexpr std::string_view kSymmetryAuto = "auto";
 constexpr std::string_view kSymmetryOff = "off";
 
@@ -790,6 +792,8 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
   c.relaxation.alternate_directions =
       in.get<std::string>("solver.line_directions") == kLinesAlternating;
+  c.relaxation.deformation_each_colour =
+      in.get<std::string>("solver.deformation_updates") == kUpdatesPerColour;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
@@ -876,6 +880,11 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      relax.alternate_directions ? kLinesAlternating : kLinesX,
                      {std::string(kLinesAlternating), std::string(kLinesX)},
                      "relaxation lines: along X and Y in turn (alternating), or along X only"));
+  r.push_back(choice("solver.deformation_updates",
+                     relax.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep,
+                     {std::string(kUpdatesPerSweep), std::string(kUpdatesPerColour)},
+                     "the relaxation recomputes the elastic deformation once per sweep, or "
+                     "before each of its two colours (twice the evaluations)"));
   r.push_back(choice("solver.face_mean", face_mean_text(defaults.face_mean),
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
@@ -1196,6 +1205,8 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
           {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
           {"omega_jacobi", c.relaxation.omega_jacobi},
           {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
+          {"deformation_updates",
+           c.relaxation.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep},
           {"face_mean", face_mean_text(c.face_mean)}};
 }
 

@@ -89,14 +89,19 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   const Field& d = jacobi_change_;
   const bool threaded = worth_threads(grid);
   // Zebra order: the lines of one colour are independent given the other
-  // colour, so they are relaxed in parallel; the coefficients (and with them
-  // the elastic deformation) are brought up to date before each colour, so
-  // each colour sees every change of the other one, through the flow and the
-  // elastic terms alike.  Colour 0 is the odd lines: on a mirrored grid, whose
+  // colour, so they are relaxed in parallel; the coefficients are brought up
+  // to date before each colour, so each colour sees every change of the other
+  // one through the flow terms, and, before colour 0 (or before each colour,
+  // settings_.deformation_each_colour), through the elastic deformation too.
+  // Colour 0 is the odd lines: on a mirrored grid, whose
   // index 0 is the full grid's even centre line, the lines keep the colours
   // they have on the full grid.
   for (int colour = 0; colour < 2; ++colour) {
-    op_.update_coefficients(P);
+    if (colour == 0 || settings_.deformation_each_colour) {
+      op_.update_coefficients(P);
+    } else {
+      op_.update_coefficients_keeping_deformation(P);
+    }
     jacobi_change_.fill(0.0);
     long colour_jac = 0;
     const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);

@@ -46,6 +46,13 @@ struct RelaxationSettings {
   /// within each relax() call); false: X lines only.  Alternating is what
   /// carries a 513^2 run through the spike phase (docs/model.md).
   bool alternate_directions = true;
+  /// The elastic deformation is recomputed before each colour of a zebra
+  /// sweep (true), or once per sweep (false: the second colour sees the
+  /// first colour's changes through the flow terms, the density and the
+  /// viscosity, and their elastic effect from the next sweep on).  Once per
+  /// sweep halves the deformation evaluations with the same cycles per step
+  /// (docs/performance.md).
+  bool deformation_each_colour = false;
 };
 
 /// The grid direction the lines of a sweep run along.

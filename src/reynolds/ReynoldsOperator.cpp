@@ -48,11 +48,22 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
   // on a coarse grid, the FAS right-hand side and the first sweep), with at
   // most Delta changed in between: the deformation and the rheology are then
   // reused and only the film is recomputed.
-  if (!(pressure_terms_valid_ &&
-        std::equal(P.span().begin(), P.span().end(), pressure_of_terms_.span().begin()))) {
-    update_pressure_terms(P);
+  if (!terms_belong_to(P)) update_pressure_terms(P);
+  update_film();
+}
+
+void ReynoldsOperator::update_coefficients_keeping_deformation(const Field& P) {
+  if (!terms_belong_to(P)) {
+    update_rheology(P);
+    // W_ no longer belongs to P: the next full update computes everything.
+    pressure_terms_valid_ = false;
   }
   update_film();
+}
+
+bool ReynoldsOperator::terms_belong_to(const Field& P) const {
+  return pressure_terms_valid_ &&
+         std::equal(P.span().begin(), P.span().end(), pressure_of_terms_.span().begin());
 }
 
 void ReynoldsOperator::update_pressure_terms(const Field& P) {
@@ -60,6 +71,12 @@ void ReynoldsOperator::update_pressure_terms(const Field& P) {
     deformation_->apply(P, W_);
     ++deformation_evaluations_;
   }
+  update_rheology(P);
+  pressure_of_terms_ = P;
+  pressure_terms_valid_ = true;
+}
+
+void ReynoldsOperator::update_rheology(const Field& P) {
   const double inv_lambda = 1.0 / settings_.lambda_bar;
   // The viscosity at P = 0, evaluated once: in contact much of the domain is
   // cavitated, and the exponential is the costly part of the loop.
@@ -77,8 +94,6 @@ void ReynoldsOperator::update_pressure_terms(const Field& P) {
     const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
     rho_over_eta_lambda_[k] = rho * inv_lambda / eta;
   }
-  pressure_of_terms_ = P;
-  pressure_terms_valid_ = true;
 }
 
 void ReynoldsOperator::update_film() {

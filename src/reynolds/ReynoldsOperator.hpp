@@ -149,6 +149,10 @@ class ReynoldsOperator {
 
   /// Recompute deformation, film thickness, density and xi for pressure P.
   void update_coefficients(const Field& P);
+  /// The same, but the deformation is kept from the last update (density,
+  /// viscosity, film and xi follow P): for a relaxation that brings the
+  /// deformation up to date less often than the flow terms.
+  void update_coefficients_keeping_deformation(const Field& P);
   /// Evaluations of the deformation integral so far (the costly part of an
   /// update): the measure of the work done on this grid.
   [[nodiscard]] long deformation_evaluations() const { return deformation_evaluations_; }
@@ -207,6 +211,10 @@ class ReynoldsOperator {
   /// The parts of an update that depend on P only (deformation, density,
   /// rho / (eta lambda_bar)), and the P they were computed for.
   void update_pressure_terms(const Field& P);
+  /// Density, its derivative and rho / (eta lambda_bar) of P.
+  void update_rheology(const Field& P);
+  /// True when the deformation and the rheology were computed for P.
+  [[nodiscard]] bool terms_belong_to(const Field& P) const;
   /// H and xi from the pressure terms and Delta.
   void update_film();
 
