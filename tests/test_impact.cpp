@@ -1000,36 +1000,68 @@ TEST(ImpactDeformation, FftAndDirectGiveTheSameImpact) {
   report("fft_vs_direct_p_max_final", fft.records.back().p_max);
 }
 
+/// The default case (M = 100) at L = 10, or isoviscous at L = 0, on 65^2,
+/// with the deformation recomputed once per sweep where the relaxation allows
+/// it, or before each colour.
+struct UpdateComparison {
+  RunResult per_sweep, per_colour;
+  double cycle_ratio = 0.0, work_ratio = 0.0;  ///< per sweep / per colour
+};
+UpdateComparison compare_deformation_updates(double L) {
+  ImpactConfig cfg = moes_config(65, 100.0, L);
+  UpdateComparison c;
+  cfg.relaxation.deformation_each_colour = false;
+  c.per_sweep = run_case(cfg);
+  cfg.relaxation.deformation_each_colour = true;
+  c.per_colour = run_case(cfg);
+  double cycles[2] = {0.0, 0.0}, work[2] = {0.0, 0.0};
+  for (int run = 0; run < 2; ++run) {
+    for (const StepRecord& r : (run == 0 ? c.per_sweep : c.per_colour).records) {
+      cycles[run] += r.cycles;
+      work[run] += r.work;
+    }
+  }
+  c.cycle_ratio = cycles[0] / cycles[1];
+  c.work_ratio = work[0] / work[1];
+  return c;
+}
+
 TEST(ImpactDeformation, OneUpdatePerSweepGivesTheImpactOfOnePerColour) {
   // The relaxation may recompute the deformation once per zebra sweep instead
   // of before each colour: the second colour then sees the first colour's
   // elastic effect one sweep late.  The iteration still converges to the same
   // discrete solution: the histories agree to the tolerance of the
-  // iteration, with the same cycles per step and half the deformation work.
-  ImpactConfig cfg = moes_config(65);
-  cfg.relaxation.deformation_each_colour = false;
-  const RunResult per_sweep = run_case(cfg);
-  cfg.relaxation.deformation_each_colour = true;
-  const RunResult per_colour = run_case(cfg);
-  ASSERT_RAN(per_sweep);
-  ASSERT_RAN(per_colour);
-  ASSERT_TRUE(per_sweep.summary.lifted_off);
-  EXPECT_EQ(per_sweep.summary.T_lift_off, per_colour.summary.T_lift_off);
+  // iteration, with the same cycles per step and about half the work.
+  const UpdateComparison c = compare_deformation_updates(10.0);
+  ASSERT_RAN(c.per_sweep);
+  ASSERT_RAN(c.per_colour);
+  ASSERT_TRUE(c.per_sweep.summary.lifted_off);
+  EXPECT_EQ(c.per_sweep.summary.T_lift_off, c.per_colour.summary.T_lift_off);
   // Measured 1e-6 and 3e-6 on 129^2 and 257^2 (docs/performance.md).
-  EXPECT_NEAR(per_sweep.summary.rebound_speed, per_colour.summary.rebound_speed, 2e-5);
-  EXPECT_NEAR(per_sweep.summary.max_force, per_colour.summary.max_force, 1e-4);
-  double cycles[2] = {0.0, 0.0}, work[2] = {0.0, 0.0};
-  for (int run = 0; run < 2; ++run) {
-    for (const StepRecord& r : (run == 0 ? per_sweep : per_colour).records) {
-      cycles[run] += r.cycles;
-      work[run] += r.work;
-    }
-  }
-  EXPECT_LE(cycles[0], 1.05 * cycles[1]);
-  EXPECT_LT(work[0], 0.6 * work[1]);
-  EXPECT_EQ(per_sweep.summary.unconverged_steps, 0);
-  report("per_sweep_over_per_colour_cycles", cycles[0] / cycles[1], 3);
-  report("per_sweep_over_per_colour_work", work[0] / work[1], 3);
+  EXPECT_NEAR(c.per_sweep.summary.rebound_speed, c.per_colour.summary.rebound_speed, 2e-5);
+  EXPECT_NEAR(c.per_sweep.summary.max_force, c.per_colour.summary.max_force, 1e-4);
+  EXPECT_LE(c.cycle_ratio, 1.05);
+  EXPECT_LT(c.work_ratio, 0.7);
+  EXPECT_EQ(c.per_sweep.summary.unconverged_steps, 0);
+  report("per_sweep_over_per_colour_cycles", c.cycle_ratio, 3);
+  report("per_sweep_over_per_colour_work", c.work_ratio, 3);
+}
+
+TEST(ImpactDeformation, IsoviscousContactKeepsTheUpdateItNeeds) {
+  // At L = 0 most points of the contact are Gauss-Seidel points whose elastic
+  // term is comparable to the flow term; once per sweep everywhere, 33 of 90
+  // steps stalled and were retried (2.3 times the work).  The relaxation
+  // recomputes the deformation for the second colour where such points
+  // outnumber the distributive ones, and the run costs less than before.
+  const UpdateComparison c = compare_deformation_updates(0.0);
+  ASSERT_RAN(c.per_sweep);
+  ASSERT_RAN(c.per_colour);
+  ASSERT_TRUE(c.per_sweep.summary.lifted_off);
+  EXPECT_EQ(c.per_sweep.summary.retried_steps, 0);
+  EXPECT_EQ(c.per_sweep.summary.T_lift_off, c.per_colour.summary.T_lift_off);
+  EXPECT_NEAR(c.per_sweep.summary.rebound_speed, c.per_colour.summary.rebound_speed, 2e-5);
+  EXPECT_LT(c.work_ratio, 1.0);
+  report("isoviscous_per_sweep_over_per_colour_work", c.work_ratio, 3);
 }
 
 TEST(ImpactSymmetry, QuadrantRunEqualsTheFullDomainRun) {
@@ -1054,18 +1086,28 @@ TEST(ImpactSymmetry, QuadrantRunEqualsTheFullDomainRun) {
     ++same_path;
   EXPECT_GE(same_path, full.records.size() * 9 / 10);
   double worst = 0.0;
+  std::size_t beyond_rounding = 0;
   for (std::size_t k = 0; k < same_path; ++k) {
     const StepRecord &a = quadrant.records[k], &b = full.records[k];
+    double step_worst = 0.0;
     for (auto [x, y] : {std::pair{a.Delta, b.Delta}, std::pair{a.dDelta_dT, b.dDelta_dT},
                         std::pair{a.force, b.force}, std::pair{a.h_center, b.h_center},
                         std::pair{a.h_min, b.h_min}, std::pair{a.p_center, b.p_center},
                         std::pair{a.p_max, b.p_max}}) {
-      worst = std::max(worst, std::abs(x - y) / std::max(1.0, std::abs(x)));
+      step_worst = std::max(step_worst, std::abs(x - y) / std::max(1.0, std::abs(x)));
     }
+    worst = std::max(worst, step_worst);
+    if (step_worst >= 1e-7) ++beyond_rounding;
   }
-  // Measured 9.4e-9: the DCT and the full FFT differ by 1e-12 per evaluation,
-  // and each step's iteration carries such differences on.
-  EXPECT_LT(worst, 1e-7);
+  // The DCT and the full FFT differ by 1e-12 per evaluation, and each step's
+  // iteration carries such differences on: 9.4e-9 at most when the
+  // deformation was recomputed before each colour.  Once per sweep, where the
+  // relaxation allows it, a rounding difference can tip that choice for a
+  // sweep (an integer comparison of point counts), and such a step agrees to
+  // the tolerance of the iteration only: measured 3 of 90 steps, all in the
+  // collapse of the pocket, the largest 8.6e-5.
+  EXPECT_LE(beyond_rounding, full.records.size() / 20);
+  EXPECT_LT(worst, 1e-3);
   EXPECT_EQ(quadrant.summary.T_lift_off, full.summary.T_lift_off);
   EXPECT_NEAR(quadrant.summary.rebound_speed, full.summary.rebound_speed, 1e-6);
   EXPECT_NEAR(quadrant.summary.max_force, full.summary.max_force, 1e-9);
@@ -1075,5 +1117,6 @@ TEST(ImpactSymmetry, QuadrantRunEqualsTheFullDomainRun) {
   EXPECT_LT(field_diff, 1e-6);
   report("quadrant_vs_full_steps_on_the_same_path", static_cast<double>(same_path));
   report("quadrant_vs_full_max_diff_on_the_same_path", worst, 3);
+  report("quadrant_vs_full_steps_beyond_rounding", static_cast<double>(beyond_rounding));
   report("quadrant_vs_full_final_H_max_diff", field_diff, 3);
 }

@@ -76,6 +76,10 @@ class LineRelaxation {
   [[nodiscard]] const SweepStats& last_sweep() const { return stats_; }
   /// Scales both under-relaxation factors of the settings by `factor` (1: as set).
   void set_damping(double factor) { damping_ = factor; }
+  /// Overrides settings.deformation_each_colour.
+  void set_deformation_each_colour(bool each_colour) {
+    settings_.deformation_each_colour = each_colour;
+  }
 
  private:
   struct LineWork;

@@ -54,6 +54,11 @@ class ReynoldsHierarchy {
   void set_damping(double factor) {
     for (auto& level : levels_) level->smoother().set_damping(factor);
   }
+  /// Sets when every level's relaxation recomputes the deformation
+  /// (reynolds::RelaxationSettings::deformation_each_colour).
+  void set_deformation_each_colour(bool each_colour) {
+    for (auto& level : levels_) level->smoother().set_deformation_each_colour(each_colour);
+  }
   /// Deformation evaluations of all levels so far, in finest-grid units:
   /// the machine-independent measure of the work done.
   [[nodiscard]] double work_units() const {
