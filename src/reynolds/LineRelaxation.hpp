@@ -87,8 +87,15 @@ class LineRelaxation {
   /// and their changes in `work`.
   void relax_line(Field& P, const Field& f, int line, LineDirection direction,
                   LineWork& work) const;
+  /// The rows of a line system between its first and its last unknown: the
+  /// points beyond them at either end are held at P = 0 (cavitated), and
+  /// their rows and columns are left out of the system.
+  struct RowRange {
+    int first, last;
+  };
   /// The banded Jacobian of the line's residuals with respect to the changes.
-  void assemble_line_jacobian(int line, LineDirection direction, LineWork& work) const;
+  void assemble_line_jacobian(int line, LineDirection direction, RowRange rows,
+                              LineWork& work) const;
   struct RowTransport;
   /// One entry of it: row r, the unknown `offset` points along the line.
   [[nodiscard]] double jacobian_entry(int r, int offset, bool jacobi_unknown,
@@ -102,7 +109,8 @@ class LineRelaxation {
     return table[std::abs(along)][std::abs(across)];
   }
   /// Solves the line system with the points held at P = 0 by the projection.
-  void solve_projected(const Field& P, int line, LineDirection direction, LineWork& work) const;
+  void solve_projected(const Field& P, int line, LineDirection direction, RowRange rows,
+                       LineWork& work) const;
 
   /// Half-bandwidth of the line systems: the flow terms of a distributive
   /// change reach two points along the line; the elastic kernel is truncated
