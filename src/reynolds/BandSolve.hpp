@@ -21,9 +21,7 @@ class BandMatrix {
   }
   void clear() { std::fill(band_.begin(), band_.end(), 0.0); }
   /// Zeroes rows first..last.
-  void clear_rows(int first, int last) {
-    std::fill(row_begin(first), row_begin(last + 1), 0.0);
-  }
+  void clear_rows(int first, int last) { std::fill(row_begin(first), row_begin(last + 1), 0.0); }
   /// Copies rows first..last of `other` (of the same shape).
   void copy_rows(const BandMatrix& other, int first, int last) {
     std::copy(other.row_begin(first), other.row_begin(last + 1), row_begin(first));
