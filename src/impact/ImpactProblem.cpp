@@ -302,7 +302,7 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   // This one solve starts from P = 0, far from its solution, and its
   // piezoviscous-elastic problem can have a second, highly loaded solution:
   // with the deformation once per sweep, the full multigrid of M = 3, L = 10
-  // on 65^2 landed on one with 6 times the force (docs/performance.md).  The
+  // on 65^2 landed on one with 6 times the force (docs/model.md, section 7).  The
   // deformation before each colour keeps it on the lightly loaded branch.
   hierarchy.set_deformation_each_colour(true);
   solver->full_multigrid();

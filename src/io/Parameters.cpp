@@ -883,8 +883,9 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
   r.push_back(choice("solver.deformation_updates",
                      relax.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep,
                      {std::string(kUpdatesPerSweep), std::string(kUpdatesPerColour)},
-                     "the relaxation recomputes the elastic deformation once per sweep, or "
-                     "before each of its two colours (twice the evaluations)"));
+                     "the relaxation recomputes the elastic deformation once per sweep (and "
+                     "for its second colour where elastically coupled Gauss-Seidel points "
+                     "outnumber distributive ones), or before each of its two colours"));
   r.push_back(choice("solver.face_mean", face_mean_text(defaults.face_mean),
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "

@@ -96,9 +96,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   const int n = grid.n;
   const int first = grid.first_interior();
   long gs = 0, jac = 0;
-  const double w = settings_.omega_jacobi * damping_;
   const double w_gs = settings_.omega_gauss_seidel * damping_;
-  const Field& d = jacobi_change_;
   const bool threaded = worth_threads(grid);
   // Zebra order: the lines of one colour are independent given the other
   // colour, so they are relaxed in parallel; the coefficients are brought up
@@ -108,10 +106,9 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   // settings_.deformation_each_colour asks for it, or when colour 0 had more
   // elastically coupled Gauss-Seidel points than distributive ones (they need
   // it, kCoupledGaussSeidelFactor); else colour 1 sees colour 0's elastic
-  // effect from the next sweep on.
-  // Colour 0 is the odd lines: on a mirrored grid, whose
-  // index 0 is the full grid's even centre line, the lines keep the colours
-  // they have on the full grid.
+  // effect from the next sweep on.  Colour 0 is the odd lines: on a mirrored
+  // grid, whose index 0 is the full grid's even centre line, the lines keep
+  // the colours they have on the full grid.
   bool refresh_deformation = true;
   for (int colour = 0; colour < 2; ++colour) {
     if (refresh_deformation) {
@@ -148,20 +145,27 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     jac += colour_jac;
     // Integer counts: the same choice for every thread count.
     refresh_deformation = settings_.deformation_each_colour || coupled > distributive;
-    if (colour_jac == 0) continue;
-      // Distributive changes: delta at the point, -delta/4 at each neighbour
-      // (across a symmetry axis the neighbour is the mirror image, whose change
-      // equals the point's own).
-#pragma omp parallel for schedule(static) if (threaded)
-    for (int j = first; j < n - 1; ++j) {
-      for (int i = first; i < n - 1; ++i) {
-        const double change =
-            d(i, j) - kDistribution * (d(i - 1, j) + d(i + 1, j) + d(i, j - 1) + d(i, j + 1));
-        if (change != 0.0) P(i, j) = std::max(0.0, P(i, j) + w * change);
-      }
-    }
+    if (colour_jac > 0) apply_distributive_changes(P);
   }
   stats_ = {gs, jac};
+}
+
+void LineRelaxation::apply_distributive_changes(Field& P) const {
+  // delta at the point, -delta/4 at each neighbour (across a symmetry axis the
+  // neighbour is the mirror image, whose change equals the point's own).
+  const Grid2D& grid = op_.grid();
+  const int n = grid.n;
+  const int first = grid.first_interior();
+  const double w = settings_.omega_jacobi * damping_;
+  const Field& d = jacobi_change_;
+#pragma omp parallel for schedule(static) if (worth_threads(grid))
+  for (int j = first; j < n - 1; ++j) {
+    for (int i = first; i < n - 1; ++i) {
+      const double change =
+          d(i, j) - kDistribution * (d(i - 1, j) + d(i + 1, j) + d(i, j - 1) + d(i, j + 1));
+      if (change != 0.0) P(i, j) = std::max(0.0, P(i, j) + w * change);
+    }
+  }
 }
 
 void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,

@@ -47,11 +47,13 @@ struct RelaxationSettings {
   /// carries a 513^2 run through the spike phase (docs/model.md).
   bool alternate_directions = true;
   /// The elastic deformation is recomputed before each colour of a zebra
-  /// sweep (true), or once per sweep (false: the second colour sees the
-  /// first colour's changes through the flow terms, the density and the
-  /// viscosity, and their elastic effect from the next sweep on).  Once per
-  /// sweep halves the deformation evaluations with the same cycles per step
-  /// (docs/performance.md).
+  /// sweep (true), or before the first colour, and before the second only
+  /// where the first had more elastically coupled Gauss-Seidel points than
+  /// distributive ones (false; else the second colour sees the first colour's
+  /// changes through the flow terms, the density and the viscosity, and their
+  /// elastic effect from the next sweep on).  false costs about 0.6 times the
+  /// deformation evaluations with the same cycles per step (docs/model.md,
+  /// section 7).
   bool deformation_each_colour = false;
 };
 
@@ -83,6 +85,8 @@ class LineRelaxation {
 
  private:
   struct LineWork;
+  /// Applies the distributive changes of a colour (jacobi_change_) to P.
+  void apply_distributive_changes(Field& P) const;
   /// Builds and solves the system of one line; leaves the kinds of its points
   /// and their changes in `work`.
   void relax_line(Field& P, const Field& f, int line, LineDirection direction,
