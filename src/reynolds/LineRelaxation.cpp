@@ -193,8 +193,9 @@ void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirectio
     const double flow = lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r];
     // Distributive changes also move the four neighbours: next to a cavitated
     // point they would fight the projection, so such points use Gauss-Seidel.
+    // Only pressurized points can be distributive or elastically coupled.
     const double elastic_bound =
-        elastic ? settings_.switch_ratio * op_.elastic_diagonal(i, j) : 0.0;
+        elastic && P(i, j) > 0.0 ? settings_.switch_ratio * op_.elastic_diagonal(i, j) : 0.0;
     lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) && flow < elastic_bound;
     const auto images = static_cast<long>(grid.multiplicity(i) * grid.multiplicity(j));
     if (lw.is_jacobi[r]) {
