@@ -3,7 +3,8 @@
 // directory, foreign directories are refused, write errors and failures leave
 // the earlier run intact, signals checkpoint and clean up, a restart from that
 // checkpoint gives the uninterrupted run's bits, a busy directory is refused,
-// and `ehlsim study` passes a signal on to its cases.
+// a rolling run stopped by SIGTERM leaves nothing, and `ehlsim study` passes a
+// signal on to its cases.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
