@@ -9,6 +9,7 @@
 #include "Study.hpp"
 #include "impact/ImpactObserver.hpp"
 #include "io/Interrupt.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/RollingOutput.hpp"
 #include "io/RollingParameters.hpp"
@@ -48,6 +49,8 @@ int run_rolling(const RollingOptions& options) {
   // Bad input throws ConfigError: exit 2 with its one line (main).
   const RollingConfig config =
       load_rolling_config(cli::config_path(options.config_file), options.overrides);
+  // Before anything big is allocated or the run directory is made.
+  const MemoryBudget memory = check_run_memory(config, available_memory_mb());
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   RunDirectory run_dir(options.out_dir);
   if (!options.quiet) print_rolling_case(config, options.out_dir);
@@ -72,7 +75,9 @@ int run_rolling(const RollingOptions& options) {
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  nlohmann::json invocation = {{"config", options.config_file}, {"overrides", options.overrides}};
+  const nlohmann::json invocation = {{"config", options.config_file},
+                                     {"overrides", options.overrides},
+                                     {"memory", memory_json(memory)}};
   write_rolling_run(run_dir.staging(), config, result, invocation, wall);
   run_dir.publish(false);
   if (!options.quiet) {

@@ -35,6 +35,7 @@
 #include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
+#include "io/RollingParameters.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
@@ -1053,6 +1054,42 @@ TEST(MemoryGuard, RefusesWhatExceedsTheLimitNamingTheKeys) {
   EXPECT_TRUE(j.at("limit_mb").is_null()) << "the available memory is not reproducible";
   EXPECT_EQ(memory_json(check_run_memory(generous, 500.0)).at("limit_mb"), 1e6);
   EXPECT_TRUE(j.at("parts_mb").contains("solver"));
+}
+
+TEST(MemoryGuard, RollingEstimateGrowsWithTheGridAndStaysAboveTheMeasuredPeak) {
+  const auto config = [](int points) {
+    return load_rolling_config(std::nullopt, {"grid.points=" + std::to_string(points)});
+  };
+  const auto estimate = [&](int points) { return estimate_rolling_memory(config(points)); };
+  const MemoryEstimate small = estimate(129);
+  const MemoryEstimate large = estimate(513);
+  // Every level is the full grid: 16 times the points from 129^2 to 513^2 (+-1 level).
+  EXPECT_NEAR(large.grid_mb / small.grid_mb, 16.0, 0.5);
+  EXPECT_NEAR(large.solver_mb / small.solver_mb, 16.0, 0.5);
+  // The levels of the full grid hold about 4/3 of its points, not the impact
+  // quadrant's 1/3.
+  EXPECT_GT(large.solver_mb, large.grid_mb);
+  // Peak RSS measured 2026-11-23 (`/usr/bin/time -f %M build/apps/ehlsim
+  // rolling --quiet --set grid.points=N`, 1 and 2 threads; docs/performance.md,
+  // "Memory"): 26.1 MB on 129^2, 35.4 on 257^2, 89.5 on 513^2, 306.3 on 1025^2.
+  EXPECT_GT(small.total_mb(), 26.1);
+  EXPECT_GT(estimate(257).total_mb(), 35.4);
+  EXPECT_GT(large.total_mb(), 89.5);
+  EXPECT_GT(estimate(1025).total_mb(), 306.3);
+  EXPECT_LT(estimate(257).total_mb(), large.total_mb());
+  EXPECT_LT(large.total_mb(), estimate(1025).total_mb());
+  // The check is the impact's: the same limit, key and message.
+  RollingConfig huge = config(4097);
+  huge.memory_limit_mb = 100.0;
+  try {
+    (void)check_run_memory(huge, 1e9);
+    FAIL() << "expected a refusal";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "grid.points");
+    EXPECT_EQ(std::string(e.what()).rfind("grid.points = 4097: the run needs about ", 0), 0u)
+        << e.what();
+  }
+  EXPECT_EQ(check_run_memory(config(129), 1e6).limit_source, "MemAvailable");
 }
 
 TEST(MemoryGuard, ReadsTheAvailableMemoryOfThisMachine) {

@@ -3,7 +3,8 @@
 // directory, foreign directories are refused, write errors and failures leave
 // the earlier run intact, signals checkpoint and clean up, a restart from that
 // checkpoint gives the uninterrupted run's bits, a busy directory is refused,
-// and `ehlsim study` passes a signal on to its cases.
+// a rolling run stopped by SIGTERM leaves nothing, and `ehlsim study` passes a
+// signal on to its cases.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
@@ -381,6 +382,37 @@ TEST(Lifecycle, ASecondRunIntoABusyDirectoryExitsAtOnce) {
   const Result after = run_into(run, "--set time.T_end=0.2");
   EXPECT_EQ(after.exit_code, 0) << after.err;
   EXPECT_TRUE(debris_beside(run).empty());
+}
+
+/// Waits until `path` exists (false after kPatience).
+bool wait_for_path(const fs::path& path) {
+  const auto until = std::chrono::steady_clock::now() + kPatience;
+  while (!fs::exists(path)) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(kPoll);
+  }
+  return true;
+}
+
+TEST(Lifecycle, SigtermEndsARollingRunAndLeavesNothing) {
+  TempDir work;
+  const fs::path run = work / "run";
+  // 513^2: 2.3 s unloaded on one thread, far longer than the signal takes to end it.
+  const auto start_time = std::chrono::steady_clock::now();
+  const Child c =
+      start({"rolling", "--set", "grid.points=513", "--out", run.string()}, work / "rolling");
+  // The staging directory exists once the run holds the lock on DIR.
+  ASSERT_TRUE(wait_for_path(work / (".run.part-" + std::to_string(c.pid))));
+  EXPECT_TRUE(fs::exists(work / ".run.lock"));
+  kill(c.pid, SIGTERM);
+  EXPECT_EQ(exit_code_of(c), 143);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  EXPECT_EQ(last_line(read_file(c.err)),
+            "ehlsim: interrupted by SIGTERM; nothing was written to " + run.string());
+  // No run directory, no staging directory, no lock: only the captured output.
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"rolling.err", "rolling.out"}));
+  EXPECT_LT(seconds, 10.0);  // stopped after its first cycle, not at the end of the run
 }
 
 TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {

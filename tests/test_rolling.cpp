@@ -3,7 +3,11 @@
 // Nijenbanning, Venner & Moes (1994), the force balance, and the command line.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
 
@@ -153,6 +157,42 @@ TEST(RollingCli, TakesAnotherSquareDomain) {
   const auto r = testing::ehlsim("rolling --quiet --set grid.x_min=0.5 --out /nonexistent/x");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("grid.x_min = 0.5: must be < 0"), std::string::npos) << r.err;
+}
+
+TEST(RollingCli, MemoryGuardRefusesAHugeGridAtOnce) {
+  const testing::TempDir dir("rolling-memory");
+  // The run directory's parent too is made only once the run is accepted.
+  const std::filesystem::path out = dir / "parent" / "run";
+  const auto start = std::chrono::steady_clock::now();
+  const auto r = testing::ehlsim(
+      "rolling --set grid.points=4097 --set solver.memory_limit_mb=100 "
+      "--out " +
+      testing::quote(out.string()));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err.rfind("ehlsim: error: grid.points = 4097: the run needs about ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(" MB of memory (estimate), more than the limit solver.memory_limit_mb = "
+                       "100: use fewer grid.points, or raise solver.memory_limit_mb\n"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;  // one line
+  EXPECT_TRUE(r.out.empty()) << r.out;  // refused before the case is printed
+  EXPECT_LT(seconds, 10.0);             // before any allocation (milliseconds unloaded)
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));  // no DIR, lock, staging or parent
+  // A run that fits records the estimate and the limit in run.json.
+  ASSERT_EQ(
+      testing::ehlsim("rolling --quiet --set grid.points=33 --set solver.memory_limit_mb=5000 "
+                      "--out " +
+                      testing::quote(out.string()))
+          .exit_code,
+      0);
+  const nlohmann::json run = nlohmann::json::parse(testing::read_file(out / "run.json"));
+  const nlohmann::json& memory = run.at("invocation").at("memory");
+  EXPECT_GT(memory.at("estimate_mb").get<double>(), 0.0);
+  EXPECT_EQ(memory.at("limit_mb"), 5000.0);
+  EXPECT_EQ(memory.at("limit_source"), "solver.memory_limit_mb");
+  EXPECT_EQ(run.at("parameters").at("solver").at("memory_limit_mb"), 5000.0);
 }
 
 TEST(RollingCli, HelpListsItsOwnKeys) {

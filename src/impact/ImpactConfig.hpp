@@ -90,9 +90,6 @@ struct ImpactConfig : SolverSettings {
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
   bool use_symmetry = true;
-  /// Refuse a run whose memory estimate exceeds this [MB]; 0: the machine's
-  /// available memory (io/MemoryGuard.hpp).
-  double memory_limit_mb = 0.0;
 
   // [output]
   int snapshot_every = 20;

@@ -37,18 +37,33 @@ constexpr double kCompressionBytesPerGridPoint = 2 * sizeof(double);
 /// (analysis/SpikeAnalysis.cpp, kMaxDryContactSteps).
 constexpr double kDryTableBytes = 3.0 * sizeof(double) * (1 << 19);
 
-/// Points of all multigrid levels, as ImpactProblem builds them: the quadrant
-/// of each level when the case is mirror-symmetric, coarsened to
-/// solver.coarsest_points.
-double solver_points(const ImpactConfig& c) {
-  const bool quadrant = is_mirror_symmetric(c);
+/// The rolling contact (docs/performance.md, "Memory"): per point of the full
+/// grid, 3 doubles (the start of a stage, kept for its retries; the result's
+/// P and H) ...
+constexpr double kRollingBytesPerGridPoint = 3 * sizeof(double);
+/// ... and per point of every multigrid level, fitted to the peak RSS
+/// (/usr/bin/time -f %M) of `ehlsim rolling` on 129^2 to 1025^2 above the
+/// process, the full-grid arrays and the compression buffers: 171 bytes on
+/// 1025^2 (306.3 MB), 157 on 513^2 (89.5 MB), rounded up to 22 doubles
+/// (the chunk-cache constant, unused by one snapshot, adds a margin).
+constexpr double kRollingBytesPerSolverPoint = 176.0;
+
+/// Points of all multigrid levels, as ReynoldsHierarchy builds them: the
+/// quadrant of each level when `quadrant` (a mirror-symmetric impact),
+/// coarsened to solver.coarsest_points.
+double solver_points(const SolverSettings& s, int grid_points, bool quadrant) {
   double points = 0.0;
-  for (int n = c.grid_points;; n = (n + 1) / 2) {
+  for (int n = grid_points;; n = (n + 1) / 2) {
     const double side = quadrant ? (n + 1) / 2 : n;
     points += side * side;
-    if (n <= c.coarsest_points || n < kMinCoarsestPoints) break;
+    if (n <= s.coarsest_points || n < kMinCoarsestPoints) break;
   }
   return points;
+}
+
+/// NetCDF's chunk cache and one compressed full-grid field of P and H.
+double output_bytes(double grid_points) {
+  return kChunkCacheBytes + kCompressionBytesPerGridPoint * grid_points;
 }
 
 }  // namespace
@@ -57,11 +72,22 @@ MemoryEstimate estimate_run_memory(const ImpactConfig& c) {
   const double grid_points = static_cast<double>(c.grid_points) * c.grid_points;
   MemoryEstimate e;
   e.process_mb = kProcessBytes / kBytesPerMB;
-  e.solver_mb = kBytesPerSolverPoint * solver_points(c) / kBytesPerMB;
+  e.solver_mb =
+      kBytesPerSolverPoint * solver_points(c, c.grid_points, is_mirror_symmetric(c)) / kBytesPerMB;
   const double checkpoint = c.checkpoint_every > 0 ? kCheckpointBytesPerGridPoint : 0.0;
   e.grid_mb = (kBytesPerGridPoint + checkpoint) * grid_points / kBytesPerMB;
-  e.output_mb = (kChunkCacheBytes + kCompressionBytesPerGridPoint * grid_points + kDryTableBytes) /
-                kBytesPerMB;
+  e.output_mb = (output_bytes(grid_points) + kDryTableBytes) / kBytesPerMB;
+  return e;
+}
+
+MemoryEstimate estimate_rolling_memory(const RollingConfig& c) {
+  const double grid_points = static_cast<double>(c.grid_points) * c.grid_points;
+  MemoryEstimate e;
+  e.process_mb = kProcessBytes / kBytesPerMB;
+  // The rolling contact has no mirror symmetry: every level is the full grid.
+  e.solver_mb = kRollingBytesPerSolverPoint * solver_points(c, c.grid_points, false) / kBytesPerMB;
+  e.grid_mb = kRollingBytesPerGridPoint * grid_points / kBytesPerMB;
+  e.output_mb = output_bytes(grid_points) / kBytesPerMB;
   return e;
 }
 
@@ -78,11 +104,13 @@ std::optional<double> available_memory_mb() {
   return std::nullopt;
 }
 
-MemoryBudget check_run_memory(const ImpactConfig& c, std::optional<double> available_mb) {
+MemoryBudget check_memory(const MemoryEstimate& estimate, double given_limit_mb, int grid_points,
+                          std::optional<double> available_mb) {
   MemoryBudget b;
-  b.estimate = estimate_run_memory(c);
-  if (c.memory_limit_mb > 0.0) {
-    b.limit_mb = c.memory_limit_mb;
+  b.estimate = estimate;
+  const bool given = given_limit_mb > 0.0;
+  if (given) {
+    b.limit_mb = given_limit_mb;
     b.limit_source = kGivenLimit;
   } else if (available_mb) {
     b.limit_mb = *available_mb;
@@ -93,18 +121,24 @@ MemoryBudget check_run_memory(const ImpactConfig& c, std::optional<double> avail
   const double need = b.estimate.total_mb();
   if (need <= b.limit_mb) return b;
   const std::string limit =
-      c.memory_limit_mb > 0.0
-          ? fmt::format("the limit solver.memory_limit_mb = {:g}", b.limit_mb)
-          : fmt::format(
-                "the {:.0f} MB this machine has available (MemAvailable in /proc/meminfo; "
-                "solver.memory_limit_mb sets another limit)",
-                b.limit_mb);
+      given ? fmt::format("the limit solver.memory_limit_mb = {:g}", b.limit_mb)
+            : fmt::format(
+                  "the {:.0f} MB this machine has available (MemAvailable in /proc/meminfo; "
+                  "solver.memory_limit_mb sets another limit)",
+                  b.limit_mb);
   throw ConfigError(
       fmt::format("grid.points = {}: the run needs about {:.0f} MB of memory (estimate), more "
                   "than {}: use fewer grid.points{}",
-                  c.grid_points, need, limit,
-                  c.memory_limit_mb > 0.0 ? ", or raise solver.memory_limit_mb" : ""),
+                  grid_points, need, limit, given ? ", or raise solver.memory_limit_mb" : ""),
       "grid.points");
+}
+
+MemoryBudget check_run_memory(const ImpactConfig& c, std::optional<double> available_mb) {
+  return check_memory(estimate_run_memory(c), c.memory_limit_mb, c.grid_points, available_mb);
+}
+
+MemoryBudget check_run_memory(const RollingConfig& c, std::optional<double> available_mb) {
+  return check_memory(estimate_rolling_memory(c), c.memory_limit_mb, c.grid_points, available_mb);
 }
 
 nlohmann::json memory_json(const MemoryBudget& b) {

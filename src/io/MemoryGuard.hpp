@@ -1,13 +1,14 @@
 #pragma once
-// The memory guard of `ehlsim impact`: an estimate of the peak resident
-// memory of a run, made from its configuration before anything big is
-// allocated, and the refusal (exit 2) of a run that would not fit
-// (docs/usage.md, "Memory guard"; the calibration: docs/performance.md).
+// The memory guard of `ehlsim impact` and `ehlsim rolling`: an estimate of
+// the peak resident memory of a run, made from its configuration before
+// anything big is allocated, and the refusal (exit 2) of a run that would not
+// fit (docs/usage.md, "Memory guard"; the calibration: docs/performance.md).
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
 #include "impact/ImpactConfig.hpp"
+#include "rolling/RollingConfig.hpp"
 
 namespace ehlsim {
 
@@ -21,6 +22,8 @@ struct MemoryEstimate {
 };
 
 [[nodiscard]] MemoryEstimate estimate_run_memory(const ImpactConfig& config);
+/// The same parts for a steady rolling contact (always on the full grid).
+[[nodiscard]] MemoryEstimate estimate_rolling_memory(const RollingConfig& config);
 
 /// MemAvailable of /proc/meminfo [MB]; nullopt when it cannot be read.
 [[nodiscard]] std::optional<double> available_memory_mb();
@@ -32,11 +35,18 @@ struct MemoryBudget {
   std::string limit_source;  ///< "solver.memory_limit_mb" or "MemAvailable"
 };
 
-/// Throws ConfigError (key grid.points) when the estimate exceeds
-/// solver.memory_limit_mb, or, when that is not given, the machine's available
-/// memory.  `available_mb` is available_memory_mb() (a parameter for tests);
-/// without it only a given limit is checked.
+/// Throws ConfigError (key grid.points) when `estimate` exceeds
+/// `given_limit_mb` (solver.memory_limit_mb; 0: not given), or, when that is
+/// not given, the machine's available memory.  `available_mb` is
+/// available_memory_mb() (a parameter for tests); without it only a given
+/// limit is checked.  `grid_points` names the run in the message.
+[[nodiscard]] MemoryBudget check_memory(const MemoryEstimate& estimate, double given_limit_mb,
+                                        int grid_points, std::optional<double> available_mb);
+
+/// check_memory of the run's estimate and solver.memory_limit_mb.
 [[nodiscard]] MemoryBudget check_run_memory(const ImpactConfig& config,
+                                            std::optional<double> available_mb);
+[[nodiscard]] MemoryBudget check_run_memory(const RollingConfig& config,
                                             std::optional<double> available_mb);
 
 /// {"estimate_mb", "limit_mb", "limit_source", "parts_mb": {...}} for run.json;

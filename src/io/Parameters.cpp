@@ -316,10 +316,6 @@ std::vector<ParameterSpec> build_registry() {
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
                      "when the case is even in X and Y (no waviness, or waviness along an axis), "
                      "4 times fewer points; off: always the full domain"));
-  r.push_back(real("solver.memory_limit_mb", no_default,
-                   "the available memory (MemAvailable of /proc/meminfo)", above(0), none, "MB",
-                   "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
-                   "this, before it starts"));
   add_spike_parameters(r);
   return r;
 }
@@ -797,6 +793,7 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
+  c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
   const int grid_points = in.integer("grid.points");
   if (c.coarsest_points > grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", grid_points));
@@ -890,6 +887,11 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
+  const std::optional<double> no_default;
+  r.push_back(real("solver.memory_limit_mb", no_default,
+                   "the available memory (MemAvailable of /proc/meminfo)", above(0), none, "MB",
+                   "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
+                   "this, before it starts"));
 }
 
 Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
@@ -1108,7 +1110,6 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
-  c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
   check_undeformed_gap(in, c);
   check_step_count(in, c);
 }
@@ -1208,7 +1209,9 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
           {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
           {"deformation_updates",
            c.relaxation.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep},
-          {"face_mean", face_mean_text(c.face_mean)}};
+          {"face_mean", face_mean_text(c.face_mean)},
+          {"memory_limit_mb",
+           c.memory_limit_mb > 0.0 ? nlohmann::json(c.memory_limit_mb) : nlohmann::json(nullptr)}};
 }
 
 nlohmann::json effective_parameters_json(const ImpactConfig& c) {
@@ -1254,8 +1257,6 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"]["correction_safeguard"] = c.correction_safeguard;
   j["solver"]["retry_damping"] = c.retry_damping;
   j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
-  j["solver"]["memory_limit_mb"] =
-      c.memory_limit_mb > 0.0 ? json(c.memory_limit_mb) : json(nullptr);
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
                 {"max_window_meshes", c.spike.max_window_meshes},

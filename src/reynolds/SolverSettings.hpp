@@ -19,6 +19,9 @@ struct SolverSettings {
   DeformationMethod deformation = DeformationMethod::Fft;
   reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
   FaceMean face_mean = FaceMean::Arithmetic;
+  /// Refuse a run whose memory estimate exceeds this [MB]; 0: the machine's
+  /// available memory (io/MemoryGuard.hpp).
+  double memory_limit_mb = 0.0;
 };
 
 }  // namespace ehlsim
