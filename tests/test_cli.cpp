@@ -19,6 +19,7 @@
 
 #include "io/Checkpoint.hpp"
 #include "support/CheckpointDamage.hpp"
+#include "support/MemoryGuardCheck.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
 
@@ -188,18 +189,7 @@ Result tiny_run(const fs::path& run, const std::string& options) {
 TEST(Cli, MemoryGuardRefusesAHugeGridAtOnce) {
   TempDir dir;
   const fs::path out = dir / "run";
-  const auto start = std::chrono::steady_clock::now();
-  const Result r = ehlsim("impact --set grid.points=4097 --set solver.memory_limit_mb=100 --out " +
-                          quote(out.string()));
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err.rfind("ehlsim: error: grid.points = 4097: the run needs about ", 0), 0u) << r.err;
-  EXPECT_NE(r.err.find("more than the limit solver.memory_limit_mb = 100: use fewer grid.points, "
-                       "or raise solver.memory_limit_mb\n"),
-            std::string::npos)
-      << r.err;
-  EXPECT_LT(seconds, 10.0);  // refused before any allocation (milliseconds unloaded)
+  ehlsim::testing::expect_memory_guard_refusal("impact", out);
   EXPECT_FALSE(fs::exists(out));
   // A run that fits records the estimate and the limit.
   ASSERT_EQ(tiny_run(out, "--set body.elastic=false --set time.T_end=0.2").exit_code, 0);
