@@ -19,7 +19,6 @@ class BandMatrix {
   double& operator()(int i, int k) {
     return band_[static_cast<std::size_t>(i) * (2 * b_ + 1) + (k - i + b_)];
   }
-  void clear() { std::fill(band_.begin(), band_.end(), 0.0); }
   /// Zeroes rows first..last.
   void clear_rows(int first, int last) { std::fill(row_begin(first), row_begin(last + 1), 0.0); }
   /// Copies rows first..last of `other` (of the same shape).
