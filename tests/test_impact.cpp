@@ -25,6 +25,7 @@
 
 #include "dynamics/DryHertz.hpp"
 #include "grid/Grid.hpp"
+#include "impact/AttemptPolicy.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactObserver.hpp"
 #include "impact/ImpactProblem.hpp"
@@ -1119,4 +1120,61 @@ TEST(ImpactSymmetry, QuadrantRunEqualsTheFullDomainRun) {
   report("quadrant_vs_full_max_diff_on_the_same_path", worst, 3);
   report("quadrant_vs_full_steps_beyond_rounding", static_cast<double>(beyond_rounding));
   report("quadrant_vs_full_final_H_max_diff", field_diff, 3);
+}
+
+// ---------------------------------------------------------------------------
+// When an attempt of a time step stops cycling (impact/AttemptPolicy.hpp).
+
+namespace {
+/// Residuals after cycles 1..cycles of an attempt that falls by `rate` per cycle from `first`.
+std::vector<double> geometric_history(double first, double rate, int cycles) {
+  std::vector<double> history;
+  for (int c = 0; c < cycles; ++c) history.push_back(first * std::pow(rate, c));
+  return history;
+}
+constexpr double kTolerance = 1e-5;
+constexpr int kMaxCycles = 20;
+}  // namespace
+
+TEST(AttemptPolicy, EndsAConvergedAttemptAtOnce) {
+  std::vector<double> history = geometric_history(1e-1, 0.5, 5);
+  history.push_back(0.9 * kTolerance);
+  EXPECT_EQ(judge_attempt(history, kTolerance, kMaxCycles), AttemptVerdict::Converged);
+}
+
+TEST(AttemptPolicy, CyclesOnWhileBelowMaxCycles) {
+  const std::vector<double> slow = geometric_history(1e-1, 0.99, kMaxCycles - 1);
+  EXPECT_EQ(judge_attempt(slow, kTolerance, kMaxCycles), AttemptVerdict::Continue);
+}
+
+TEST(AttemptPolicy, EndsAnAttemptThatClimbsFarAboveItsLowestResidual) {
+  // Falls to 1e-3, then climbs: within kLostGroundFactor it may still come
+  // back (converged attempts of the 513^2 collapse rose up to 1.14 times),
+  // beyond it the attempt is lost.
+  std::vector<double> history = {1e-1, 1e-2, 1e-3};
+  history.push_back(0.99 * kLostGroundFactor * 1e-3);
+  EXPECT_EQ(judge_attempt(history, kTolerance, kMaxCycles), AttemptVerdict::Continue);
+  history.push_back(1.01 * kLostGroundFactor * 1e-3);
+  EXPECT_EQ(judge_attempt(history, kTolerance, kMaxCycles), AttemptVerdict::LostGround);
+}
+
+TEST(AttemptPolicy, ExtendsASteadyAttemptThatWillReachTheTolerance) {
+  // 0.69 per cycle, the rate of the 513^2 collapse's converging retries: from
+  // 1e-1, 8.7e-5 after 20 cycles; 6 more reach the tolerance.
+  const std::vector<double> steady = geometric_history(1e-1, 0.69, kMaxCycles);
+  ASSERT_GT(steady.back(), kTolerance);
+  EXPECT_EQ(judge_attempt(steady, kTolerance, kMaxCycles), AttemptVerdict::Continue);
+}
+
+TEST(AttemptPolicy, DoesNotExtendASlowOrHopelessAttempt) {
+  // Steady but too slow for the extension: 0.95 per cycle.
+  const std::vector<double> slow = geometric_history(1e-3, 0.95, kMaxCycles);
+  EXPECT_EQ(judge_attempt(slow, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
+  // Fast enough (0.85) but too far: 0.18 after 20 cycles would need 60 more.
+  const std::vector<double> far = geometric_history(4e0, 0.85, kMaxCycles);
+  EXPECT_EQ(judge_attempt(far, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
+  // Every attempt ends at kExtendedCycleFactor times max_cycles.
+  const std::vector<double> at_cap = geometric_history(1e2, 0.7, kExtendedCycleFactor * kMaxCycles);
+  ASSERT_GT(at_cap.back(), kTolerance);
+  EXPECT_EQ(judge_attempt(at_cap, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
 }

@@ -10,8 +10,10 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "dynamics/Newmark.hpp"
+#include "impact/AttemptPolicy.hpp"
 #include "impact/RunGuards.hpp"
 #include "multigrid/Fas.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
@@ -124,9 +126,18 @@ struct ImpactProblem::Impl {
   double choose_start(int step);
   /// The attempts of one step from the chosen start; returns the new force.
   double solve_with_retries(int step, const BallState& ball);
-  /// The multigrid cycles of one step from the current approximation; false
-  /// when max_cycles ended above the tolerance.  Throws on divergence.
-  bool iterate_time_step(int step, const BallState& ball);
+  /// The iterate with the smallest residual of a step's attempts so far.
+  struct BestIterate {
+    Field P;
+    double residual = std::numeric_limits<double>::infinity();
+    double delta = 0.0;
+    int cycles = 0;
+  };
+  /// The multigrid cycles of one attempt of a step from the current
+  /// approximation, as long as judge_attempt lets them go on; false when the
+  /// attempt ended above the tolerance.  Offers every iterate to `best`.
+  /// Throws on divergence.
+  bool iterate_time_step(int step, const BallState& ball, BestIterate& best);
   StepRecord make_record(int step, const BallState& ball, double force) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
@@ -233,19 +244,17 @@ double ImpactProblem::Impl::choose_start(int step) {
 }
 
 double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) {
-  // Cycles until the tolerance.  Should the iteration diverge or stall above
-  // the tolerance (the highly nonlinear moments: dimple formation, the spike
-  // and the collapse of the entrapped pocket before lift-off), the step starts
-  // again from the same initial approximation with more damping
-  // (attempt_damping), up to kMaxRetries times.  If no attempt converges, the attempt
-  // with the smallest residual is kept and the step is counted as unconverged.
+  // Cycles until the tolerance.  Should the iteration diverge, lose ground or
+  // stall above the tolerance (the highly nonlinear moments: dimple formation,
+  // the spike and the collapse of the entrapped pocket before lift-off), the
+  // step starts again from the same initial approximation with more damping
+  // (attempt_damping), up to kMaxRetries times.  If no attempt converges, the
+  // iterate with the smallest residual of all attempts is kept and the step is
+  // counted as unconverged.
   const Field start = solver->solution();
   const double start_delta = hierarchy.finest().delta();
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
-  Field best;
-  double best_residual = std::numeric_limits<double>::infinity();
-  double best_delta = start_delta;
-  int best_cycles = 0;
+  BestIterate best;
   for (int attempt = 0;; ++attempt) {
     const double damping = attempt_damping(attempt, cfg.retry_damping);
     hierarchy.set_damping(damping);
@@ -260,25 +269,18 @@ double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) 
     // represent the spike, and their corrections blew steps up.
     solver->set_correction_safeguard(attempt > 0 ? cfg.correction_safeguard : 0.0);
     bool converged = false;
-    bool diverged = false;
     try {
-      converged = iterate_time_step(step, ball);
+      converged = iterate_time_step(step, ball, best);
     } catch (const std::runtime_error&) {
-      // A diverged attempt is never kept; when no attempt was even stalled
-      // the run cannot go on.
-      if (attempt == kMaxRetries && best.size() == 0) throw;
-      diverged = true;
+      // A diverged attempt is never kept (only its iterates before it
+      // diverged are candidates); when no attempt had a finite iterate, the
+      // run cannot go on.
+      if (attempt == kMaxRetries && best.P.size() == 0) throw;
     }
     last_attempts = attempt + 1;
     if (converged) {
       if (attempt > 0) ++summary.retried_steps;
       return fine.force(solver->solution());
-    }
-    if (!diverged && last_residual < best_residual) {
-      best = solver->solution();
-      best_residual = last_residual;
-      best_delta = fine.delta();
-      best_cycles = last_cycles;
     }
     if (attempt == kMaxRetries) break;
     solver->solution() = start;
@@ -286,12 +288,12 @@ double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) 
   }
   ++summary.unconverged_steps;
   ++summary.retried_steps;
-  solver->solution() = best;
-  set_delta(best_delta);
-  fine.update_coefficients(best);
-  last_residual = best_residual;
-  last_cycles = best_cycles;
-  return fine.force(best);
+  solver->solution() = best.P;
+  set_delta(best.delta);
+  fine.update_coefficients(best.P);
+  last_residual = best.residual;
+  last_cycles = best.cycles;
+  return fine.force(best.P);
 }
 
 double ImpactProblem::Impl::solve_initial_pressure() {
@@ -320,24 +322,39 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   return fine.force(solver->solution());
 }
 
-bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball) {
+bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, BestIterate& best) {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   const double initial_residual = start_residual;  // every attempt starts from the same state
   if (monitor) monitor(step, 0, initial_residual);
-  for (int c = 1; c <= cfg.max_cycles; ++c) {
+  std::vector<double> history;
+  for (int c = 1;; ++c) {
     solver->cycle();
     set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
     last_residual = solver->residual_norm();
     last_cycles = c;
+    history.push_back(last_residual);
     if (monitor) monitor(step, c, last_residual);
     if (!std::isfinite(last_residual) || last_residual > kDivergenceFactor * initial_residual)
       throw std::runtime_error(fmt::format(
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
           "{:.3e} at the start of the step)",
           step, ball.T + dT, last_residual, initial_residual));
-    if (last_residual < cfg.tolerance) return true;
+    if (last_residual < best.residual) {
+      best.P = solver->solution();
+      best.residual = last_residual;
+      best.delta = fine.delta();
+      best.cycles = c;
+    }
+    switch (judge_attempt(history, cfg.tolerance, cfg.max_cycles)) {
+      case AttemptVerdict::Converged:
+        return true;
+      case AttemptVerdict::LostGround:
+      case AttemptVerdict::Exhausted:
+        return false;
+      case AttemptVerdict::Continue:
+        break;
+    }
   }
-  return false;
 }
 
 StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force) const {

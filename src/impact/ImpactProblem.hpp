@@ -28,10 +28,10 @@ class ImpactProblem {
   /// Marches from Delta0 until lift-off, rest in the film (or T_end); reports
   /// every step to `observer`.  Throws std::runtime_error when the iteration of
   /// a time step diverges, RunFailure (impact/RunGuards.hpp) when a step breaks
-  /// a physics guard or the step cap; a step that ends at solver.max_cycles at
-  /// most 100 times above solver.tolerance is kept and counted in
-  /// RunSummary::unconverged_steps.  Throws RunInterrupted after a step when
-  /// observer.stop_requested().
+  /// a physics guard or the step cap; a step none of whose attempts converged
+  /// keeps its best iterate, if that is at most 100 times above
+  /// solver.tolerance, and is counted in RunSummary::unconverged_steps.  Throws RunInterrupted
+  /// after a step when observer.stop_requested().
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;

@@ -302,8 +302,8 @@ std::vector<ParameterSpec> build_registry() {
                       "steps; 0: never"));
   // [solver]
   add_solver_parameters(r, kDefaults.solver_settings(),
-                        "multigrid cycles per attempt of a time step (a stalled step is retried "
-                        "with more damping)");
+                        "multigrid cycles per attempt of a time step (up to twice as many while "
+                        "it converges steadily; a stalled step is retried with more damping)");
   r.push_back(real("solver.correction_safeguard", kDefaults.correction_safeguard, "", at_least(0),
                    none, "",
                    "in the retries of a step, undo a coarse-grid correction that raises the "

@@ -1,0 +1,40 @@
+#include "impact/AttemptPolicy.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ehlsim {
+
+namespace {
+/// The mean reduction per cycle over the last kRateWindow cycles.
+double recent_rate(std::span<const double> history) {
+  const double now = history.back();
+  const double before = history[history.size() - 1 - kRateWindow];
+  return std::pow(now / before, 1.0 / kRateWindow);
+}
+
+/// True when the attempt converges steadily enough to reach the tolerance
+/// within the cycles of the extension.
+bool worth_extending(std::span<const double> history, double tolerance, int max_cycles) {
+  const int cycles = static_cast<int>(history.size());
+  const int cap = kExtendedCycleFactor * max_cycles;
+  if (cycles >= cap || cycles <= kRateWindow) return false;
+  const double rate = recent_rate(history);
+  if (!(rate < kSteadyRate)) return false;
+  const double cycles_needed = std::log(tolerance / history.back()) / std::log(rate);
+  return cycles_needed <= cap - cycles;
+}
+}  // namespace
+
+AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles) {
+  const double now = history.back();
+  if (now < tolerance) return AttemptVerdict::Converged;
+  const auto before = history.first(history.size() - 1);
+  if (!before.empty() && now > kLostGroundFactor * *std::min_element(before.begin(), before.end()))
+    return AttemptVerdict::LostGround;
+  if (static_cast<int>(history.size()) < max_cycles) return AttemptVerdict::Continue;
+  return worth_extending(history, tolerance, max_cycles) ? AttemptVerdict::Continue
+                                                         : AttemptVerdict::Exhausted;
+}
+
+}  // namespace ehlsim

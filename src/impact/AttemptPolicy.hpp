@@ -1,0 +1,40 @@
+#pragma once
+// When one attempt of a time step stops cycling (docs/model.md, section 7).
+//
+// Measured in the pocket collapse on 513^2 (T = 3.99-4.16, every cycle of
+// every attempt logged): the attempts that converge do so steadily, at 0.5-0.8
+// per cycle, and several fell just short at solver.max_cycles (1.4e-5 against
+// a tolerance of 1e-5 after 20 cycles at 0.69 per cycle), which cost a fourth
+// attempt and left the step above the tolerance.  The attempts that fail climb
+// from their lowest residual by orders of magnitude before they blow up or
+// wander; none of the attempts that converged ever rose above 2 times its
+// lowest residual.
+#include <span>
+
+namespace ehlsim {
+
+/// What an attempt does after its latest cycle.
+enum class AttemptVerdict {
+  Continue,    ///< cycle again
+  Converged,   ///< below the tolerance
+  LostGround,  ///< climbed far above its lowest residual: retry from the start
+  Exhausted,   ///< out of cycles (or converging too slowly to use more)
+};
+
+/// An attempt whose residual climbs this many times above the lowest it
+/// reached has lost its way (above: no converged attempt rose beyond 2 times).
+inline constexpr double kLostGroundFactor = 4.0;
+/// An attempt still converging steadily at solver.max_cycles may go on up to
+/// this many times solver.max_cycles in all ...
+inline constexpr int kExtendedCycleFactor = 2;
+/// ... when its mean rate over the last kRateWindow cycles ...
+inline constexpr int kRateWindow = 4;
+/// ... is below this and reaches the tolerance within the extension.
+inline constexpr double kSteadyRate = 0.9;
+
+/// The verdict on an attempt whose residuals after cycles 1, 2, ... are
+/// `history` (the latest last), given the tolerance and solver.max_cycles.
+[[nodiscard]] AttemptVerdict judge_attempt(std::span<const double> history, double tolerance,
+                                           int max_cycles);
+
+}  // namespace ehlsim
