@@ -128,6 +128,27 @@ TEST(Rolling, EllipticHertzHasTheBallAsItsCircularLimit) {
   EXPECT_NEAR(slender.p0, 1.27663, 1e-4);
 }
 
+TEST(Rolling, PhysicalEllipticCaseUsesRxForTheMoesGroupsAndHertzUnits) {
+  // model.md, "Steady rolling point contact": D = Rx/Ry, U and W on Rx, and
+  // lambda_bar = 6 eta0 u_s Rx^2/(a^3 ph) with the Hertz units of the ball of
+  // radius Rx, which is the lambda_bar of M (docs/model.md, section 11).
+  const double Rx = 0.012, Ry = 0.006, w = 50.0, u1 = 1.5, u2 = 0.5, E = 2.2e11, eta0 = 0.04,
+               alpha = 2.1e-8;
+  const RollingConfig c = load_rolling_config(
+      std::nullopt, {"physical.Rx=0.012", "physical.Ry=0.006", "physical.load=50.0",
+                     "physical.u1=1.5", "physical.u2=0.5", "physical.reduced_modulus=2.2e11",
+                     "physical.eta0=0.04", "physical.alpha=2.1e-8"});
+  const double U = eta0 * (u1 + u2) / (E * Rx), W = w / (E * Rx * Rx);
+  EXPECT_DOUBLE_EQ(c.D, Rx / Ry);
+  EXPECT_NEAR(c.M, W * std::pow(U, -0.75), 1e-12 * c.M);
+  EXPECT_NEAR(c.L, alpha * E * std::pow(U, 0.25), 1e-12 * c.L);
+  const double a = std::cbrt(1.5 * w * Rx / E);
+  const double ph = 1.5 * w / (std::numbers::pi * a * a);
+  EXPECT_NEAR(c.lambda_bar, 6.0 * eta0 * (u1 + u2) * Rx * Rx / (a * a * a * ph),
+              1e-9 * c.lambda_bar);
+  EXPECT_NEAR(c.alpha_bar, alpha * ph, 1e-9 * c.alpha_bar);
+}
+
 TEST(Rolling, EllipticContactApproachesEllipticHertzAtHighM) {
   // D = Rx/Ry = 2 and 0.5, L = 0, close to dry: along both axes the pressure
   // is the elliptic Hertz pressure of the same gap and load within 0.03 p0
