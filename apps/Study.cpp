@@ -1,10 +1,13 @@
 // ehlsim study: runs the paper's cases M = 10, 20, 50, 100 with L = 10 as
 // child processes of this binary (`ehlsim impact`, one OpenMP thread each,
-// --jobs at a time), analyses their snapshots (`ehlsim spike`), writes the dry
-// Hertz reference and draws the figures with scripts/plot_study.py.
+// --jobs at a time), and the steady rolling contact at M = 20 and 100
+// (`ehlsim rolling`) for the paper's impact-rolling similarity, analyses the
+// impacts' snapshots (`ehlsim spike`), writes the dry Hertz reference and
+// draws the figures with scripts/plot_study.py.
 //
 //   <out>/M<M>/            the run of each case (timeseries.csv, spike.csv,
 //                          fields.nc, run.json, spike_*.csv, axis_profiles.csv)
+//   <out>/rolling_M<M>/    the rolling contact at the same M and L (profile_x.csv, ...)
 //   <out>/logs/M<M>.log    the output of each child
 //   <out>/dry.csv          T, A_dry of the dry Hertz impact (same Delta0, V0)
 //   <out>/study.json       grid, cases, exit codes, wall times
@@ -38,6 +41,7 @@
 #include "io/CsvWriter.hpp"
 #include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
+#include "io/RollingParameters.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
 
@@ -98,6 +102,13 @@ using cli::kExitOk;
 /// The paper's cases (Lubrecht & Venner 2022, figure 5): M = 10, 20, 50, 100, L = 10.
 constexpr double kStudyM[] = {100.0, 50.0, 20.0, 10.0};  // longest first
 constexpr double kStudyL = 10.0;
+/// The similarity figure (the paper's section 2): the steady rolling contact
+/// at these M (same L, so the same lambda_bar as the impact), about 1 s each on 257^2.
+constexpr double kRollingM[] = {20.0, 100.0};
+/// The user's --set keys of these sections reach the rolling runs too (the
+/// same lubricant and solids on both sides of the comparison); the impact's
+/// solver, time and output keys mean nothing there.
+constexpr std::string_view kSharedPhysicsSections[] = {"lubricant", "body"};
 /// Times of the paper's figures 1-3: the first spike profile (3.223) and the
 /// comparison of P(X) with P(R) (3.574).
 constexpr double kFigureTimes[] = {3.223, 3.574};
@@ -112,8 +123,11 @@ constexpr int kExitSignalBase = 128;
 constexpr const char* kSelf = "/proc/self/exe";
 
 std::string case_name(double M) { return fmt::format("M{:g}", M); }
+std::string rolling_case_name(double M) { return fmt::format("rolling_M{:g}", M); }
 
 struct Case {
+  std::string command = "impact";  ///< the ehlsim subcommand: impact or rolling
+  std::string name;                ///< its directory and log: M20, rolling_M20
   double M = 0.0;
   std::vector<std::string> overrides;
   fs::path dir;
@@ -130,8 +144,9 @@ std::vector<Case> study_cases(const StudyOptions& options, const fs::path& out) 
   for (const double M : kStudyM) {
     Case c;
     c.M = M;
-    c.dir = out / case_name(M);
-    c.log = out / "logs" / (case_name(M) + ".log");
+    c.name = case_name(M);
+    c.dir = out / c.name;
+    c.log = out / "logs" / (c.name + ".log");
     // The user's settings first; the study's own keys win.
     c.overrides = options.overrides;
     c.overrides.push_back(fmt::format("case.M={:g}", M));
@@ -145,6 +160,46 @@ std::vector<Case> study_cases(const StudyOptions& options, const fs::path& out) 
     cases.push_back(std::move(c));
   }
   return cases;
+}
+
+/// The key of a --set assignment, without the value and the blanks around it.
+std::string override_key(const std::string& assignment) {
+  std::string key = assignment.substr(0, assignment.find('='));
+  key.erase(0, key.find_first_not_of(" \t"));
+  key.erase(key.find_last_not_of(" \t") + 1);
+  return key;
+}
+
+/// The rolling runs of the similarity figure, after the impacts (they take a second).
+std::vector<Case> rolling_cases(const StudyOptions& options, const fs::path& out) {
+  std::vector<Case> cases;
+  for (const double M : kRollingM) {
+    Case c;
+    c.command = "rolling";
+    c.M = M;
+    c.name = rolling_case_name(M);
+    c.dir = out / c.name;
+    c.log = out / "logs" / (c.name + ".log");
+    for (const std::string& o : options.overrides) {
+      const std::string key = override_key(o);
+      const std::string section = key.substr(0, key.find('.'));
+      if (std::find(std::begin(kSharedPhysicsSections), std::end(kSharedPhysicsSections),
+                    section) != std::end(kSharedPhysicsSections) &&
+          rolling_parameters().find(key) != nullptr)
+        c.overrides.push_back(o);
+    }
+    c.overrides.push_back(fmt::format("case.M={:g}", M));
+    c.overrides.push_back(fmt::format("case.L={:g}", kStudyL));
+    c.overrides.push_back(fmt::format("grid.points={}", options.rolling_grid));
+    cases.push_back(std::move(c));
+  }
+  return cases;
+}
+
+/// "M = 20  " for an impact (the study's log lines), "rolling M = 20" for a rolling run.
+std::string case_label(const Case& c) {
+  return c.command == "impact" ? fmt::format("M = {:<4g}", c.M)
+                               : fmt::format("rolling M = {:g}", c.M);
 }
 
 /// The environment with OMP_NUM_THREADS=1 (the study runs its cases side by side).
@@ -236,7 +291,7 @@ void run_cases(std::vector<Case>& cases, int jobs) {
            InterruptGuard::received() == 0) {
       Case& c = cases[next++];
       // argv[0] the binary's path: the resume command in a case's log works as it is.
-      std::vector<std::string> args = {fs::read_symlink(kSelf).string(), "impact", "--out",
+      std::vector<std::string> args = {fs::read_symlink(kSelf).string(), c.command, "--out",
                                        c.dir.string()};
       for (const std::string& o : c.overrides) {
         args.push_back("--set");
@@ -248,11 +303,11 @@ void run_cases(std::vector<Case>& cases, int jobs) {
       } catch (const std::runtime_error& e) {
         // The cases already running are still waited for.
         c.exit_code = cli::kExitFailure;
-        fmt::print("  FAILED   M = {:<4g}: {}\n", c.M, e.what());
+        fmt::print("  FAILED   {}: {}\n", case_label(c), e.what());
         continue;
       }
       running[c.pid] = &c;
-      fmt::print("  started  M = {:<4g} (pid {}, log {})\n", c.M, c.pid, c.log.string());
+      fmt::print("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
       std::fflush(stdout);
     }
     if (running.empty()) break;  // interrupted before the next start
@@ -270,9 +325,9 @@ void run_cases(std::vector<Case>& cases, int jobs) {
     c.exit_code = exit_code_of(status);
     c.wall_seconds = seconds_since(c.start);
     if (c.exit_code == kExitOk) {
-      fmt::print("  finished M = {:<4g} in {:.1f} s\n", c.M, c.wall_seconds);
+      fmt::print("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
     } else {
-      fmt::print("  FAILED   M = {:<4g} after {:.1f} s (exit {}): {}\n", c.M, c.wall_seconds,
+      fmt::print("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
                  c.exit_code, last_line(c.log));
     }
     std::fflush(stdout);
@@ -295,7 +350,7 @@ void write_dry_reference(const fs::path& path, const ImpactConfig& config) {
 int report_interruption(const std::vector<Case>& cases) {
   std::vector<std::string> stopped;
   for (const Case& c : cases) {
-    if (c.signalled) stopped.push_back(case_name(c.M));
+    if (c.signalled) stopped.push_back(c.name);
   }
   const int signal = InterruptGuard::received();
   std::fflush(stdout);
@@ -332,13 +387,18 @@ std::optional<std::string> study_owned(const std::string& key) {
 }
 
 /// Bad study options, before anything runs: exit 2 with the option named.
-void check_study_options(const StudyOptions& options) {
-  if (!(options.grid >= kMinGridPoints && options.grid <= kMaxGridPoints &&
-        is_power_of_two_plus_one(options.grid))) {
-    throw ConfigError(fmt::format(
-        "--grid = {}: must be 2^k + 1 between {} and {} (the points per side of every case)",
-        options.grid, kMinGridPoints, kMaxGridPoints));
+void check_grid_option(const char* option, int points, const char* what) {
+  if (!(points >= kMinGridPoints && points <= kMaxGridPoints && is_power_of_two_plus_one(points))) {
+    throw ConfigError(
+        fmt::format("{} = {}: must be 2^k + 1 between {} and {} (the points per "
+                    "side of {})",
+                    option, points, kMinGridPoints, kMaxGridPoints, what));
   }
+}
+
+void check_study_options(const StudyOptions& options) {
+  check_grid_option("--grid", options.grid, "every impact case");
+  check_grid_option("--rolling-grid", options.rolling_grid, "the rolling runs");
   const int cores = available_cores();
   if (options.jobs < 1 || options.jobs > cores) {
     throw ConfigError(fmt::format(
@@ -346,10 +406,7 @@ void check_study_options(const StudyOptions& options) {
         options.jobs, cores));
   }
   for (const std::string& assignment : options.overrides) {
-    const std::size_t eq = assignment.find('=');
-    std::string key = assignment.substr(0, eq);
-    key.erase(0, key.find_first_not_of(" \t"));
-    key.erase(key.find_last_not_of(" \t") + 1);
+    const std::string key = override_key(assignment);
     if (const auto why = study_owned(key)) {
       throw ConfigError(fmt::format("--set '{}': the study sets {} itself in every case ({}); "
                                     "--set applies the other keys to every case",
@@ -364,14 +421,33 @@ void check_study_options(const StudyOptions& options) {
   }
 }
 
+/// The entry of a case in study.json; a finished impact's snapshots analysed first.
+nlohmann::json case_summary(const Case& c) {
+  nlohmann::json entry = {{"command", c.command},
+                          {"M", c.M},
+                          {"dir", c.dir.filename().string()},
+                          {"exit_code", c.exit_code},
+                          {"wall_seconds", c.wall_seconds}};
+  if (c.exit_code == cli::kExitOk && c.command == "impact") {
+    const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
+    entry["snapshots"] = report.snapshots;
+  }
+  return entry;
+}
+
 }  // namespace
 
 CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
   CLI::App* cmd = app.add_subcommand(
       "study",
       "The paper's spike study: M = 10, 20, 50, 100 (L = 10) in parallel, the dry "
-      "reference, the spike analysis and the figures fig1..fig6.");
-  cmd->add_option("-g,--grid", options.grid, "points per side (2^k + 1; the paper used 1025)")
+      "reference, the spike analysis and the figures fig1..fig6; and the impact-rolling "
+      "similarity: the rolling contact at M = 20, 100 beside the impact (figure similarity).");
+  cmd->add_option("-g,--grid", options.grid,
+                  "points per side of the impacts (2^k + 1; the paper used 1025)")
+      ->capture_default_str();
+  cmd->add_option("--rolling-grid", options.rolling_grid,
+                  "points per side of the rolling runs (2^k + 1; about 1 s each on 257)")
       ->capture_default_str();
   cmd->add_option("-o,--out", options.out_dir, "study directory (created if missing)")
       ->check(cli::not_empty("a directory"))
@@ -405,6 +481,10 @@ int run_study(const StudyOptions& options) {
   for (const Case& c : cases) {
     reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError, before any run
   }
+  for (Case& c : rolling_cases(options, out)) {
+    (void)load_rolling_config(std::nullopt, c.overrides);
+    cases.push_back(std::move(c));
+  }
   const fs::path script =
       options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
   if (!options.no_plots && !fs::exists(script)) {
@@ -413,8 +493,10 @@ int run_study(const StudyOptions& options) {
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
   fs::create_directories(out / "logs");
-  fmt::print("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, {} at a time\n", out.string(),
-             fmt::join(kStudyM, ", "), kStudyL, options.grid, options.jobs);
+  fmt::print(
+      "ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",
+      out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid, fmt::join(kRollingM, ", "),
+      options.rolling_grid, options.jobs);
   std::fflush(stdout);
   run_cases(cases, options.jobs);
   if (InterruptGuard::received() != 0) return report_interruption(cases);
@@ -423,21 +505,13 @@ int run_study(const StudyOptions& options) {
   nlohmann::json summary = {
       {"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
       {"grid", options.grid},
+      {"rolling_grid", options.rolling_grid},
       {"L", kStudyL},
       {"overrides", options.overrides},
       {"cases", nlohmann::json::array()}};
   for (const Case& c : cases) {
-    nlohmann::json entry = {{"M", c.M},
-                            {"dir", c.dir.filename().string()},
-                            {"exit_code", c.exit_code},
-                            {"wall_seconds", c.wall_seconds}};
-    if (c.exit_code == cli::kExitOk) {
-      const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
-      entry["snapshots"] = report.snapshots;
-    } else {
-      ok = false;
-    }
-    summary["cases"].push_back(entry);
+    summary["cases"].push_back(case_summary(c));
+    ok = ok && c.exit_code == cli::kExitOk;
   }
   write_dry_reference(out / "dry.csv", reference);
   summary["runs_wall_seconds"] = seconds_since(start);

@@ -44,6 +44,7 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 
 struct StudyOptions {
   int grid = 257;
+  int rolling_grid = 257;  ///< points per side of the rolling runs (similarity figure)
   std::string out_dir = "study";
   int jobs = 2;
   std::vector<std::string> overrides;

@@ -3,7 +3,7 @@
 //   ehlsim impact [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--restart CHECKPOINT] [--quiet]
 //   ehlsim impact --help        (lists every parameter with default and range)
 //   ehlsim spike RUN_DIR [--out DIR] [--set spike.KEY=VALUE]... [--quiet]
-//   ehlsim study [--grid N] [--out DIR] [--jobs J] [--set KEY=VALUE]... [--no-plots]
+//   ehlsim study [--grid N] [--rolling-grid N] [--out DIR] [--jobs J] [--set K=V]... [--no-plots]
 //   ehlsim rolling [CONFIG.toml] [--out DIR] [--set KEY=VALUE]... [--quiet]  (apps/Rolling.cpp)
 //   ehlsim --version
 //

@@ -6,7 +6,8 @@ Run with Debian's Python (numpy, matplotlib):  /usr/bin/python3 scripts/plot_stu
 
 Reads, per case STUDY_DIR/M<M>/: timeseries.csv, spike.csv (in-situ, every step),
 spike_snapshots.csv, spike_profiles.csv, axis_profiles.csv (`ehlsim spike`), run.json;
-and STUDY_DIR/dry.csv.  Also writes figures/summary.json with the measured figures quoted in
+STUDY_DIR/dry.csv; and, for the impact-rolling similarity (figure similarity),
+STUDY_DIR/rolling_M<M>/profile_x.csv and run.json of the steady rolling contact.  Also writes figures/summary.json with the measured figures quoted in
 docs/validation.md (lift-off per M, spike path, V_s ratio, R_s against the dry radius).
 """
 import csv
@@ -37,6 +38,9 @@ PAPER_MAX_DEFORMATION_T = 3.0      # the paper's "maximum deformation point T = 
 EARLY_WINDOW = 0.1                 # V_s near T = 3: mean over T = 3 +- this
 LATE_STEPS = 3                     # V_s just before lift-off: mean of the last 3 spike steps
 COMPARISON_TIMES = [3.0, 3.5, 3.75, 4.0]   # R_s against A_dry in summary.json
+SIMILARITY_CASES = [20, 100]       # the impact beside the rolling contact at the same M, L = 10
+SIMILARITY_X_RANGE = (-3.0, 2.2)   # the rolling X and the impact's T - T(max force)
+SIMILARITY_H_MAX = 1.5
 DPI = 130
 
 
@@ -272,6 +276,56 @@ def histories(cases, dry, out):
     write_csv(os.path.join(out, "histories.csv"), ["M", "T", "h_center", "h_min", "force", "Delta"], rows)
 
 
+def load_rolling(study, M):
+    """The rolling contact at M (`ehlsim rolling` run by the study), or None if it did not finish."""
+    d = os.path.join(study, f"rolling_M{M}")
+    if not os.path.exists(os.path.join(d, "run.json")):
+        return None
+    return {"run": json.load(open(os.path.join(d, "run.json"))),
+            "profile": read_csv(os.path.join(d, "profile_x.csv"))}
+
+
+def similarity(by_M, study, out):
+    """The paper's section 2: the impact's central film h_c(T), its time shifted so that the
+    largest force is at 0, beside the rolling film H(X, Y = 0) at the same M and L (so the same
+    lambda_bar), on common axes.  Returns the figures quoted in docs/validation.md."""
+    pairs = [(M, by_M[M], load_rolling(study, M)) for M in SIMILARITY_CASES if M in by_M]
+    pairs = [(M, impact, rolling) for M, impact, rolling in pairs if rolling is not None]
+    if not pairs:
+        return {}
+    fig, axes = plt.subplots(1, len(pairs), figsize=(5.5 * len(pairs), 4.2), squeeze=False)
+    rows, result = [], {}
+    for ax, (M, impact, rolling) in zip(axes[0], pairs):
+        ts, profile = impact["ts"], rolling["profile"]
+        T_peak = impact["run"]["results"]["T_max_force"]
+        shifted = ts["T"] - T_peak
+        n_roll = rolling["run"]["parameters"]["grid"]["points"]
+        n_imp = impact["run"]["parameters"]["grid"]["points"]
+        ax.plot(profile["X"], profile["H"], "-", label=f"rolling: H(X, Y = 0), {n_roll}$^2$")
+        ax.plot(shifted, ts["h_center"], "--",
+                label=f"impact: $h_c$(T $-$ {T_peak:.2f}), {n_imp}$^2$")
+        ax.set_xlim(*SIMILARITY_X_RANGE)
+        ax.set_ylim(0, SIMILARITY_H_MAX)
+        ax.set_xlabel("X (rolling)  |  T $-$ T(max force) (impact)")
+        ax.set_ylabel("H")
+        ax.set_title(f"M = {M}, L = 10 (the same $\\bar\\lambda$)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        rows += [(M, "rolling", float(x), float(h)) for x, h in zip(profile["X"], profile["H"])]
+        rows += [(M, "impact", float(t), float(h)) for t, h in zip(shifted, ts["h_center"])]
+        r = rolling["run"]["results"]
+        k = int(np.argmin(np.abs(ts["T"] - T_peak)))
+        result[str(M)] = {"rolling_Hc": r["Hc"], "rolling_Hm": r["Hm"], "rolling_X_Hm": r["X_Hm"],
+                          "impact_T_max_force": T_peak,
+                          "impact_h_center_at_max_force": float(ts["h_center"][k]),
+                          "impact_min_h_center": float(np.nanmin(ts["h_center"]))}
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "similarity.png"), dpi=DPI)
+    plt.close(fig)
+    write_csv(os.path.join(out, "similarity.csv"), ["M", "mode", "X_or_T_shifted", "H"], rows)
+    return {"similarity": result}
+
+
 def mean_finite(values):
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v)]
@@ -335,6 +389,7 @@ def main():
         fig6(by_M[PROFILE_CASE], out)
     fig5(cases, dry, out)
     histories(cases, dry, out)
+    result.update(similarity(by_M, study, out))
     result.update(summary(cases, dry))
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(result, f, indent=2, default=float)

@@ -352,7 +352,12 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   const fs::path out = dir / "study";
   expect_bad_input(
       ehlsim("study --grid 100 --out " + quote(out.string())),
-      "--grid = 100: must be 2^k + 1 between 9 and 4097 (the points per side of every case)");
+      "--grid = 100: must be 2^k + 1 between 9 and 4097 (the points per side of every impact "
+      "case)");
+  expect_bad_input(
+      ehlsim("study --grid 33 --rolling-grid 200 --out " + quote(out.string())),
+      "--rolling-grid = 200: must be 2^k + 1 between 9 and 4097 (the points per side of the "
+      "rolling runs)");
   const int cores = available_cores();
   for (const int jobs : {0, cores + 1, 1000}) {
     expect_bad_input(
@@ -381,27 +386,38 @@ TEST(Cli, StudySetAppliesToEveryCase) {
   TempDir dir;
   const fs::path out = dir / "study";
   const Result r = ehlsim(
-      "study --grid 33 --no-plots --set time.T_end=0.2 --set "
-      "solver.coarsest_points=9 --out " +
+      "study --grid 33 --rolling-grid 65 --no-plots --set time.T_end=0.2 --set "
+      "solver.coarsest_points=9 --set lubricant.ph_star=0.5e9 --set "
+      "lubricant.density=dowson-higginson --out " +
       quote(out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   for (const char* M : {"M10", "M20", "M50", "M100"}) {
     const nlohmann::json run = nlohmann::json::parse(read_file(out / M / "run.json"));
     EXPECT_EQ(run.at("parameters").at("time").at("T_end").get<double>(), 0.2) << M;
     EXPECT_EQ(run.at("parameters").at("solver").at("coarsest_points").get<int>(), 9) << M;
+    EXPECT_EQ(run.at("parameters").at("lubricant").at("density"), "dowson-higginson") << M;
     EXPECT_EQ(run.at("results").at("outcome").get<std::string>(), "t_end") << M;
+  }
+  // The rolling runs get the lubricant (the same on both sides of the
+  // similarity), not the impact's solver settings: their own coarsest grid.
+  for (const char* M : {"rolling_M20", "rolling_M100"}) {
+    const nlohmann::json run = nlohmann::json::parse(read_file(out / M / "run.json"));
+    EXPECT_EQ(run.at("parameters").at("lubricant").at("density"), "dowson-higginson") << M;
+    EXPECT_EQ(run.at("parameters").at("solver").at("coarsest_points").get<int>(), 17) << M;
+    EXPECT_EQ(run.at("parameters").at("grid").at("points").get<int>(), 65) << M;
   }
 }
 
-/// The whole study on a 33^2 grid (about 2 s): four child runs, their spike
-/// files, the dry reference, and the figures when Debian's Python has matplotlib.
+/// The whole study on a 33^2 grid (about 3 s): four impacts, their spike
+/// files, the two rolling runs of the similarity figure (65^2), the dry
+/// reference, and the figures when Debian's Python has matplotlib.
 TEST(Cli, TinyStudy) {
   TempDir dir;
   const fs::path out = dir / "study";
   const bool with_plots =
       std::system("/usr/bin/python3 -c 'import numpy, matplotlib' > /dev/null 2>&1") == 0;
-  const Result r =
-      ehlsim("study --grid 33 --out " + quote(out.string()) + (with_plots ? "" : " --no-plots"));
+  const Result r = ehlsim("study --grid 33 --rolling-grid 65 --out " + quote(out.string()) +
+                          (with_plots ? "" : " --no-plots"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const std::string summary = read_file(out / "study.json");
   for (const char* M : {"M10", "M20", "M50", "M100"}) {
@@ -412,10 +428,18 @@ TEST(Cli, TinyStudy) {
     }
     EXPECT_NE(summary.find(std::string("\"dir\": \"") + M + "\""), std::string::npos);
   }
+  for (const char* M : {"rolling_M20", "rolling_M100"}) {
+    for (const char* file : {"run.json", "profile_x.csv"}) {
+      EXPECT_TRUE(fs::exists(out / M / file)) << M << " " << file;
+    }
+    EXPECT_NE(summary.find(std::string("\"dir\": \"") + M + "\""), std::string::npos) << M;
+  }
+  EXPECT_NE(summary.find("\"command\": \"rolling\""), std::string::npos) << summary;
   EXPECT_EQ(summary.find("\"exit_code\": 1"), std::string::npos) << summary;
   EXPECT_EQ(read_file(out / "dry.csv").rfind("T,A_dry\n", 0), 0u);
   if (!with_plots) GTEST_SKIP() << "/usr/bin/python3 without numpy/matplotlib: figures not tried";
-  for (const char* figure : {"fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "histories"}) {
+  for (const char* figure :
+       {"fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "histories", "similarity"}) {
     EXPECT_TRUE(fs::exists(out / "figures" / (std::string(figure) + ".png"))) << figure;
     EXPECT_TRUE(fs::exists(out / "figures" / (std::string(figure) + ".csv"))) << figure;
   }

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include "io/RollingParameters.hpp"
 #include "rolling/FilmFormula.hpp"
@@ -80,6 +81,103 @@ TEST(Rolling, ApproachesHertzAtHighM) {
   EXPECT_LT(h_hi - h_lo, 0.01 * 0.32);
 }
 
+/// The dry Hertz contact of the gap X^2/2 + D Y^2/2 in the units of
+/// RollingConfig (deformation (2/pi^2) Int P/r, load Int P = 2 pi/3): an
+/// ellipse with semi-axes ax (along X) and ay and central pressure p0.
+struct EllipticHertz {
+  double ax = 0.0, ay = 0.0, p0 = 0.0;
+};
+
+/// Hertz theory of elliptic contacts (e.g. Johnson, Contact Mechanics, 3.5):
+/// with the major axis A, minor axis B, e^2 = 1 - B^2/A^2, the gap coefficient
+/// along the minor axis over that along the major one is
+/// (E(e)/(1 - e^2) - K(e)) / (K(e) - E(e)), and the load and the coefficient
+/// along the major axis (c_major = (2/pi^2) pi p0 B (K - E)/(e^2 A^2), here)
+/// give A^3 = 2 (K - E)/(pi e^2 c_major) with p0 A B = 1.
+EllipticHertz elliptic_hertz(double D) {
+  const double ratio = std::max(D, 1.0 / D);
+  const auto coefficient_ratio = [](double e) {
+    const double K = std::comp_ellint_1(e), E = std::comp_ellint_2(e);
+    return (E / (1.0 - e * e) - K) / (K - E);
+  };
+  double lo = 1e-6, hi = 1.0 - 1e-12;  // the ratio grows with e from 1
+  for (int k = 0; k < 200; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (coefficient_ratio(mid) < ratio ? lo : hi) = mid;
+  }
+  const double e = 0.5 * (lo + hi);
+  const double K = std::comp_ellint_1(e), E = std::comp_ellint_2(e);
+  const double c_major = 0.5 * std::min(1.0, D);
+  const double major = std::cbrt(2.0 * (K - E) / (std::numbers::pi * e * e * c_major));
+  const double minor = major * std::sqrt(1.0 - e * e);
+  EllipticHertz hz;
+  hz.ax = D >= 1.0 ? major : minor;
+  hz.ay = D >= 1.0 ? minor : major;
+  hz.p0 = 1.0 / (hz.ax * hz.ay);
+  return hz;
+}
+
+TEST(Rolling, EllipticHertzHasTheBallAsItsCircularLimit) {
+  const EllipticHertz ball = elliptic_hertz(1.0 + 1e-9);
+  EXPECT_NEAR(ball.ax, 1.0, 1e-4);
+  EXPECT_NEAR(ball.ay, 1.0, 1e-4);
+  // Rx = 2 Ry: narrower across the rolling, semi-axis ratio close to D^(-2/3).
+  const EllipticHertz slender = elliptic_hertz(2.0);
+  EXPECT_NEAR(slender.ax, 1.11453, 1e-4);
+  EXPECT_NEAR(slender.ay, 0.70282, 1e-4);
+  EXPECT_NEAR(slender.p0, 1.27663, 1e-4);
+}
+
+TEST(Rolling, PhysicalEllipticCaseUsesRxForTheMoesGroupsAndHertzUnits) {
+  // model.md, "Steady rolling point contact": D = Rx/Ry, U and W on Rx, and
+  // lambda_bar = 6 eta0 u_s Rx^2/(a^3 ph) with the Hertz units of the ball of
+  // radius Rx, which is the lambda_bar of M (docs/model.md, section 11).
+  const double Rx = 0.012, Ry = 0.006, w = 50.0, u1 = 1.5, u2 = 0.5, E = 2.2e11, eta0 = 0.04,
+               alpha = 2.1e-8;
+  const RollingConfig c = load_rolling_config(
+      std::nullopt, {"physical.Rx=0.012", "physical.Ry=0.006", "physical.load=50.0",
+                     "physical.u1=1.5", "physical.u2=0.5", "physical.reduced_modulus=2.2e11",
+                     "physical.eta0=0.04", "physical.alpha=2.1e-8"});
+  const double U = eta0 * (u1 + u2) / (E * Rx), W = w / (E * Rx * Rx);
+  EXPECT_DOUBLE_EQ(c.D, Rx / Ry);
+  EXPECT_NEAR(c.M, W * std::pow(U, -0.75), 1e-12 * c.M);
+  EXPECT_NEAR(c.L, alpha * E * std::pow(U, 0.25), 1e-12 * c.L);
+  const double a = std::cbrt(1.5 * w * Rx / E);
+  const double ph = 1.5 * w / (std::numbers::pi * a * a);
+  EXPECT_NEAR(c.lambda_bar, 6.0 * eta0 * (u1 + u2) * Rx * Rx / (a * a * a * ph),
+              1e-9 * c.lambda_bar);
+  EXPECT_NEAR(c.alpha_bar, alpha * ph, 1e-9 * c.alpha_bar);
+}
+
+TEST(Rolling, EllipticContactApproachesEllipticHertzAtHighM) {
+  // D = Rx/Ry = 2 and 0.5, L = 0, close to dry: along both axes the pressure
+  // is the elliptic Hertz pressure of the same gap and load within 0.03 p0
+  // inside 0.8 of each semi-axis (measured: 0.019 for D = 2 at M = 500, 0.025
+  // for D = 0.5 at M = 1000; the inlet meniscus of the contact that is short
+  // along X needs the higher M), and its peak is p0 within 1 %: the gap, the
+  // Hertz scales and the force balance of an elliptic contact are Hertz's.
+  for (const auto& [D, M] : {std::pair{2.0, 500.0}, std::pair{0.5, 1000.0}}) {
+    SCOPED_TRACE("D = " + std::to_string(D));
+    RollingConfig c = rolling_case(M, 0, 257);
+    c.D = D;
+    const RollingResult r = solve(c);
+    const EllipticHertz hz = elliptic_hertz(D);
+    const Grid2D& g = r.grid;
+    const int i0 = static_cast<int>(std::lround(-g.x(0) / g.h()));
+    const int j0 = static_cast<int>(std::lround(-g.y(0) / g.h()));
+    double worst = 0.0;
+    for (int k = 0; k < g.n; ++k) {
+      const double x = g.x(k) / hz.ax, y = g.y(k) / hz.ay;
+      if (std::abs(x) < 0.8)
+        worst = std::max(worst, std::abs(r.P(k, j0) / hz.p0 - std::sqrt(1.0 - x * x)));
+      if (std::abs(y) < 0.8)
+        worst = std::max(worst, std::abs(r.P(i0, k) / hz.p0 - std::sqrt(1.0 - y * y)));
+    }
+    EXPECT_LT(worst, 0.03);
+    EXPECT_NEAR(r.P_max / hz.p0, 1.0, 0.01);
+  }
+}
+
 TEST(Rolling, CentralFilmIsSecondOrderInSpace) {
   double hc[3];
   const int points[3] = {65, 129, 257};
@@ -99,6 +197,18 @@ TEST(Rolling, CentralFilmAgreesWithNijenbanningVennerMoes) {
       EXPECT_NEAR(moes / nvm_central_film(M, L) - 1.0, 0.0, 0.04) << "M " << M << " L " << L;
     }
   }
+}
+
+TEST(Rolling, CentralFilmConvergesAtL20OnTheFineGrid) {
+  // M = 1000, L = 20 on 513^2: at full relaxation the residual oscillates
+  // about 1e-3 and never reaches the tolerance in 50 cycles (exit 1 before
+  // the stall was detected); restarted at half relaxation it converges in
+  // about 17 cycles, 0.9 % above the formula.  (Named CentralFilm* so that
+  // the sanitizer pass of .ci/run skips it with the other fine-grid runs.)
+  const RollingConfig c = rolling_case(1000, 20, 513);
+  const RollingResult r = solve(c);
+  EXPECT_LT(r.residual, c.tolerance);
+  EXPECT_NEAR(hertz_to_moes_film(r.Hc, 1000) / nvm_central_film(1000, 20) - 1.0, 0.0, 0.04);
 }
 
 TEST(Rolling, CompressibleFilmIsThinnerInTheContact) {
