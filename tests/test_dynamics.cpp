@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "dynamics/Bdf.hpp"
 #include "dynamics/DryHertz.hpp"
 #include "dynamics/Newmark.hpp"
 
@@ -168,4 +169,39 @@ TEST(DryHertz, NoContactWhenMovingAway) {
   EXPECT_EQ(r.impulse, 0.0);
   EXPECT_THROW((void)simulate_dry_hertz(1.0, 1.0, 0.01, std::numeric_limits<double>::infinity()),
                std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
+// Variable-step BDF2 (dynamics/Bdf.hpp), used where a time step is solved in halves.
+
+TEST(Bdf2, IsExactForQuadraticsAtAnyStepRatio) {
+  // u = 1 + 2 T - 3 T^2: u'(T) = 2 - 6 T.  Levels T0 - dT/omega, T0, T0 + dT.
+  const auto u = [](double T) { return 1.0 + 2.0 * T - 3.0 * T * T; };
+  const double T0 = 0.7, dT = 0.01;
+  for (const double omega : {0.25, 0.5, 1.0, 2.0}) {
+    const BdfCoefficients b = bdf2(omega);
+    const double derivative = (b.b0 * u(T0 + dT) + b.b1 * u(T0) + b.b2 * u(T0 - dT / omega)) / dT;
+    EXPECT_NEAR(derivative, 2.0 - 6.0 * (T0 + dT), 1e-9) << "omega = " << omega;
+  }
+}
+
+TEST(Bdf2, ConstantStepGivesTheClassicalCoefficientsExactly) {
+  const BdfCoefficients b = bdf2(1.0);
+  EXPECT_EQ(b.b0, 1.5);
+  EXPECT_EQ(b.b1, -2.0);
+  EXPECT_EQ(b.b2, 0.5);
+}
+
+TEST(Bdf2, ErrorIsSecondOrderInTheStep) {
+  // u = exp(T) with steps dT after dT / 2: the error of u'(T0 + dT) falls 4
+  // times when dT halves.
+  const double T0 = 0.3;
+  const auto error = [&](double dT) {
+    const BdfCoefficients b = bdf2(2.0);
+    const double derivative =
+        (b.b0 * std::exp(T0 + dT) + b.b1 * std::exp(T0) + b.b2 * std::exp(T0 - dT / 2.0)) / dT;
+    return std::fabs(derivative - std::exp(T0 + dT));
+  };
+  const double order = std::log2(error(0.02) / error(0.01));
+  EXPECT_NEAR(order, 2.0, 0.05);
 }

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamics/Bdf.hpp"
 #include "dynamics/Newmark.hpp"
 #include "impact/AttemptPolicy.hpp"
 #include "impact/RunGuards.hpp"
@@ -28,18 +29,15 @@ bool is_mirror_symmetric(const ImpactConfig& c) {
 }
 
 namespace {
-/// BDF coefficients (b0, b1, b2) of d/dT u ~ (b0 u^{n+1} + b1 u^n + b2 u^{n-1}) / dT.
-struct BdfCoefficients {
-  double b0, b1, b2;
-};
-constexpr BdfCoefficients kBdf1{1.0, -1.0, 0.0};
-constexpr BdfCoefficients kBdf2{1.5, -2.0, 0.5};
 /// A step whose residual grows this far above its starting value has diverged.
 constexpr double kDivergenceFactor = 1e3;
 /// Retries of a diverged or stalled step (attempt_damping).
 constexpr int kMaxRetries = 3;
 /// Each retry after the first halves the damping factor once more.
 constexpr double kFurtherRetryDamping = 0.5;
+/// A step none of whose attempts converges is solved as two halves, and each
+/// half likewise, down to dT / 2^kMaxSplitDepth.
+constexpr int kMaxSplitDepth = 2;
 
 /// The factor on both under-relaxation parameters in attempt `attempt` of a
 /// step: 1, then solver.retry_damping (0.8), then half of that at each
@@ -116,16 +114,47 @@ struct ImpactProblem::Impl {
   // Named steps of run().
   void set_time_coefficients(double b0);
   void set_delta(double Delta);
-  /// Solves one time step for the ball state `ball` (at the old time);
-  /// returns the force at the new time.  Throws if the step does not converge.
-  double solve_time_step(int step, const BallState& ball, double force_guess);
+  // How run() starts, checks and ends each step (impact/RunGuards.hpp).
+  struct RunProgress {
+    BallState ball;
+    double force_now = 0.0, force_before = 0.0;
+    bool had_pressure = false;
+    int first_step = 1;
+    RunBounds bounds;
+    double energy = 0.0;  ///< kinetic + elastic energy after the last step
+  };
+  /// The force at the new time level, and whether an attempt converged (else
+  /// the best iterate of all attempts is the solution).
+  struct StepSolve {
+    double force = 0.0;
+    bool converged = false;
+  };
+  /// What a time level starts from: enough to solve its interval again, in halves.
+  struct IntervalStart {
+    Field P, P_before, rhoH_now, rhoH_old;
+    BallState ball;
+    double force_now = 0.0, force_before = 0.0, delta = 0.0, level_spacing = 0.0;
+    int levels_done = 0;
+  };
+  /// Advances `run` by one time step dT (step `step`): as one implicit step,
+  /// or in halves when none of its attempts converges.
+  void advance_step(int step, RunProgress& run);
+  /// Advances `run` over [T, T + dt], `depth` halvings below a whole step.
+  void advance_interval(int step, RunProgress& run, double dt, int depth);
+  IntervalStart interval_start(const RunProgress& run) const;
+  void restore_interval_start(const IntervalStart& start, RunProgress& run);
+  /// Moves the ball and the time levels to the solution of the interval dt.
+  void accept_interval(RunProgress& run, double dt, double force);
+  /// Solves the interval dt from the last time level of `run`.  Throws if
+  /// every attempt diverged.
+  StepSolve solve_time_step(int step, const RunProgress& run, double dt);
   /// The quasi-static film pressure at T = 0; returns its force.
   double solve_initial_pressure();
-  /// Chooses the initial approximation of step `step` (the last pressure or
-  /// its extrapolation in time) and returns its residual.
-  double choose_start(int step);
-  /// The attempts of one step from the chosen start; returns the new force.
-  double solve_with_retries(int step, const BallState& ball);
+  /// Chooses the initial approximation of a step dt = omega x the last one
+  /// (the last pressure or its extrapolation in time) and returns its residual.
+  double choose_start(double omega);
+  /// The attempts of one step from the chosen start.
+  StepSolve solve_with_retries(int step, const BallState& ball);
   /// The iterate with the smallest residual of a step's attempts so far.
   struct BestIterate {
     Field P;
@@ -143,15 +172,6 @@ struct ImpactProblem::Impl {
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
                    bool snapshot) const;
 
-  // How run() starts, checks and ends each step (impact/RunGuards.hpp).
-  struct RunProgress {
-    BallState ball;
-    double force_now = 0.0, force_before = 0.0;
-    bool had_pressure = false;
-    int first_step = 1;
-    RunBounds bounds;
-    double energy = 0.0;  ///< kinetic + elastic energy after the last step
-  };
   void start_at_delta0(RunProgress& run);
   void start_from_restart(RunProgress& run);
   double elastic_energy_now() const;
@@ -167,13 +187,24 @@ struct ImpactProblem::Impl {
   multigrid::FasSolver* solver;  ///< hierarchy's
   Field rhoH_now, rhoH_old;      ///< rho H at the last two time levels (finest grid)
   Field P_before;                ///< pressure of the time level before the last one
+  /// Time between the last two time levels: dT, or a part of it within a split step.
+  double level_spacing = 0.0;
+  /// Time levels solved so far, the halves of split steps included (the first
+  /// is solved with BDF1, the first two start from the last pressure).
+  int levels_done = 0;
+  /// What the current step cost and how it ended, over its halves if it was split.
+  struct StepTally {
+    int cycles = 0, attempts = 0, splits = 0;
+    double residual = 0.0;
+    bool retried = false, unconverged = false;
+  };
+  StepTally tally;
   BdfCoefficients bdf = kBdf1;
   ImpactProblem::CycleMonitor monitor;
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
   int last_cycles = 0;
-  int last_attempts = 1;  ///< attempts of the last step (1 + retries)
   double work_at_step_start = 0.0;
   /// The run's summary so far; the solver counters (unconverged and retried
   /// steps) are kept in it by solve_time_step.
@@ -198,23 +229,29 @@ void ImpactProblem::Impl::set_time_coefficients(double b0) { hierarchy.set_time_
 
 void ImpactProblem::Impl::set_delta(double Delta) { hierarchy.set_delta(Delta); }
 
-double ImpactProblem::Impl::solve_time_step(int step, const BallState& ball, double force_guess) {
-  bdf = step == 1 ? kBdf1 : kBdf2;  // BDF2 needs two earlier levels: BDF1 starts it
-  set_time_coefficients(bdf.b0);
+ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_time_step(int step,
+                                                                    const RunProgress& run,
+                                                                    double dt) {
+  const double omega = levels_done > 0 ? dt / level_spacing : 1.0;
+  bdf = levels_done == 0 ? kBdf1 : bdf2(omega);  // BDF2 needs two earlier levels: BDF1 starts it
+  hierarchy.set_time_step(dt, bdf.b0);
   fill_interior(solver->rhs(), grid, [&](int i, int j) {
-    return (bdf.b1 * rhoH_now(i, j) + bdf.b2 * rhoH_old(i, j)) / dT;
+    return (bdf.b1 * rhoH_now(i, j) + bdf.b2 * rhoH_old(i, j)) / dt;
   });
-
   // The separation at the new time follows from the force at the new time
   // (Newmark); the coupling is weak (dDelta/dforce = beta dT^2 3/(2 pi)), so a
   // fixed-point update of Delta after each cycle converges in a few cycles.
-  set_delta(newmark.delta_for_force(ball, force_guess));
-  start_residual = choose_start(step);
-  return solve_with_retries(step, ball);
+  // Its first value comes from the force extrapolated linearly in time.
+  newmark = Newmark(dt);
+  const double force_guess =
+      levels_done >= 2 ? (1.0 + omega) * run.force_now - omega * run.force_before : run.force_now;
+  set_delta(newmark.delta_for_force(run.ball, force_guess));
+  start_residual = choose_start(omega);
+  return solve_with_retries(step, run.ball);
 }
 
-double ImpactProblem::Impl::choose_start(int step) {
-  if (step > 2) {
+double ImpactProblem::Impl::choose_start(double omega) {
+  if (levels_done >= 2) {
     // Linear extrapolation in time of the pressure: the initial approximation
     // is then O(dT^2) from the new solution instead of O(dT) where the
     // pressure is smooth.  A spike that moves by a fraction of a mesh size per
@@ -225,7 +262,8 @@ double ImpactProblem::Impl::choose_start(int step) {
     // the extra residual evaluation.)
     Field& P = solver->solution();
     const Field last = P;
-    for (std::size_t k = 0; k < P.size(); ++k) P[k] = std::max(0.0, 2.0 * last[k] - P_before[k]);
+    for (std::size_t k = 0; k < P.size(); ++k)
+      P[k] = std::max(0.0, (1.0 + omega) * last[k] - omega * P_before[k]);
     double residual = solver->residual_norm();
     const Field extrapolated = P;
     P = last;
@@ -238,19 +276,19 @@ double ImpactProblem::Impl::choose_start(int step) {
     P_before = last;
     return residual;
   }
-  // Steps 1 and 2 start from the last solution (step 1: the T = 0 pressure).
+  // The first two levels start from the last solution (the first: the T = 0 pressure).
   P_before = solver->solution();
   return solver->residual_norm();
 }
 
-double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) {
+ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
+                                                                       const BallState& ball) {
   // Cycles until the tolerance.  Should the iteration diverge, lose ground or
   // stall above the tolerance (the highly nonlinear moments: dimple formation,
   // the spike and the collapse of the entrapped pocket before lift-off), the
   // step starts again from the same initial approximation with more damping
   // (attempt_damping), up to kMaxRetries times.  If no attempt converges, the
-  // iterate with the smallest residual of all attempts is kept and the step is
-  // counted as unconverged.
+  // iterate with the smallest residual of all attempts is the result.
   const Field start = solver->solution();
   const double start_delta = hierarchy.finest().delta();
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
@@ -277,23 +315,19 @@ double ImpactProblem::Impl::solve_with_retries(int step, const BallState& ball) 
       // run cannot go on.
       if (attempt == kMaxRetries && best.P.size() == 0) throw;
     }
-    last_attempts = attempt + 1;
-    if (converged) {
-      if (attempt > 0) ++summary.retried_steps;
-      return fine.force(solver->solution());
-    }
+    ++tally.attempts;
+    if (attempt > 0) tally.retried = true;
+    if (converged) return {fine.force(solver->solution()), true};
     if (attempt == kMaxRetries) break;
     solver->solution() = start;
     set_delta(start_delta);
   }
-  ++summary.unconverged_steps;
-  ++summary.retried_steps;
   solver->solution() = best.P;
   set_delta(best.delta);
   fine.update_coefficients(best.P);
   last_residual = best.residual;
   last_cycles = best.cycles;
-  return fine.force(best.P);
+  return {fine.force(best.P), false};
 }
 
 double ImpactProblem::Impl::solve_initial_pressure() {
@@ -338,7 +372,7 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, Bes
       throw std::runtime_error(fmt::format(
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
           "{:.3e} at the start of the step)",
-          step, ball.T + dT, last_residual, initial_residual));
+          step, ball.T + newmark.dT(), last_residual, initial_residual));
     if (last_residual < best.residual) {
       best.P = solver->solution();
       best.residual = last_residual;
@@ -355,6 +389,91 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, Bes
         break;
     }
   }
+}
+
+void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
+  tally = StepTally{};
+  const Field P_start = solver->solution();
+  const Field rhoH_start = rhoH_now;
+  const double force_start = run.force_now;
+  const double T_start = run.ball.T;
+  advance_interval(step, run, dT, 0);
+  if (tally.splits > 0) {
+    // The next step sees the levels T and T + dT, as after an unsplit step.
+    rhoH_old = rhoH_start;
+    P_before = P_start;
+    run.force_before = force_start;
+    run.ball.T = T_start + dT;
+    level_spacing = dT;
+    levels_done = step;
+  }
+  if (tally.retried) ++summary.retried_steps;
+  if (tally.unconverged) ++summary.unconverged_steps;
+}
+
+void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt, int depth) {
+  const IntervalStart start = interval_start(run);
+  std::optional<StepSolve> solved;
+  try {
+    solved = solve_time_step(step, run, dt);
+  } catch (const std::runtime_error&) {
+    if (depth == kMaxSplitDepth) throw;
+  }
+  if (!solved || (!solved->converged && depth < kMaxSplitDepth)) {
+    // Half the time step halves the distance the pocket-collapse spike moves
+    // in it (docs/model.md, section 8).
+    restore_interval_start(start, run);
+    ++tally.splits;
+    tally.retried = true;
+    advance_interval(step, run, 0.5 * dt, depth + 1);
+    advance_interval(step, run, 0.5 * dt, depth + 1);
+    return;
+  }
+  if (!solved->converged) tally.unconverged = tally.retried = true;
+  accept_interval(run, dt, solved->force);
+}
+
+ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
+    const RunProgress& run) const {
+  return {solver->solution(0),
+          P_before,
+          rhoH_now,
+          rhoH_old,
+          run.ball,
+          run.force_now,
+          run.force_before,
+          hierarchy.finest().delta(),
+          level_spacing,
+          levels_done};
+}
+
+void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, RunProgress& run) {
+  solver->solution() = start.P;
+  P_before = start.P_before;
+  rhoH_now = start.rhoH_now;
+  rhoH_old = start.rhoH_old;
+  run.ball = start.ball;
+  run.force_now = start.force_now;
+  run.force_before = start.force_before;
+  set_delta(start.delta);
+  level_spacing = start.level_spacing;
+  levels_done = start.levels_done;
+}
+
+void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, double force) {
+  run.ball = newmark.advance(run.ball, force);
+  summary.impulse += 0.5 * (run.force_now + force) * dt * kForceToAcceleration;
+  run.force_before = run.force_now;
+  run.force_now = force;
+  const reynolds::ReynoldsOperator& fine = hierarchy.finest();
+  const Field& H = fine.film();
+  const Field& rho = fine.density();
+  rhoH_old = rhoH_now;
+  for (std::size_t k = 0; k < H.size(); ++k) rhoH_now[k] = rho[k] * H[k];
+  level_spacing = dt;
+  ++levels_done;
+  tally.cycles += last_cycles;
+  tally.residual = std::max(tally.residual, last_residual);
 }
 
 StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force) const {
@@ -379,9 +498,9 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, dou
       r.p_max = std::max(r.p_max, P(i, j));
     }
   }
-  r.cycles = last_cycles;
-  r.residual = last_residual;
-  r.attempts = last_attempts;
+  r.cycles = tally.cycles;
+  r.residual = tally.residual;
+  r.attempts = tally.attempts;
   r.work = hierarchy.work_units() - work_at_step_start;
   return r;
 }
@@ -414,6 +533,8 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   summary.initial_force = initial_force;
   summary.initial_elastic_energy = elastic_energy_now();
   run.force_now = run.force_before = initial_force;
+  level_spacing = dT;
+  levels_done = 0;
   run.bounds = run_bounds(cfg, dT, summary.initial_elastic_energy);
 }
 
@@ -432,6 +553,8 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   rhoH_now = fold(s.rhoH, grid);
   rhoH_old = fold(s.rhoH_before, grid);
   run.first_step = s.step + 1;
+  level_spacing = dT;  // every checkpointed step ends at levels dT apart (advance_step)
+  levels_done = s.step;
   restart.reset();
 }
 
@@ -480,22 +603,10 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   }
   BallState& ball = run.ball;
   for (int step = run.first_step;; ++step) {
-    // Linear extrapolation of the force is the initial guess of the new separation.
-    const double guess = step > 2 ? 2.0 * run.force_now - run.force_before : run.force_now;
     work_at_step_start = hierarchy.work_units();
-    const double force = solve_time_step(step, ball, guess);
-    ball = newmark.advance(ball, force);
-    summary.impulse += 0.5 * (run.force_now + force) * dT * kForceToAcceleration;
-    run.force_before = run.force_now;
-    run.force_now = force;
-
-    reynolds::ReynoldsOperator& fine = hierarchy.finest();
-    const Field& H = fine.film();
-    const Field& rho = fine.density();
-    rhoH_old = rhoH_now;
-    for (std::size_t k = 0; k < H.size(); ++k) rhoH_now[k] = rho[k] * H[k];
-
-    const StepRecord record = make_record(step, ball, force);
+    advance_step(step, run);
+    const Field& H = hierarchy.finest().film();
+    const StepRecord record = make_record(step, ball, run.force_now);
     const std::optional<RunOutcome> end = check_step_end(record, run);
     const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
