@@ -432,8 +432,14 @@ int run_study(const StudyOptions& options) {
                             {"exit_code", c.exit_code},
                             {"wall_seconds", c.wall_seconds}};
     if (c.exit_code == cli::kExitOk) {
-      const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
-      entry["snapshots"] = report.snapshots;
+      try {
+        const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
+        entry["snapshots"] = report.snapshots;
+      } catch (const RunInterrupted&) {
+        return report_interruption(cases);  // the case keeps its earlier spike files
+      } catch (const PublishInterrupted&) {
+        return report_interruption(cases);
+      }
     } else {
       ok = false;
     }
