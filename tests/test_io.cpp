@@ -1688,6 +1688,17 @@ TEST(RunDirectory, AnAmendmentReplacesItsFilesAndKeepsEverythingElse) {
   // The checkpoint of an interrupted impact run into DIR is not the amendment's to remove.
   EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
 
+  // Through a symbolic link: the directory it points to changes, the link stays.
+  fs::create_directory_symlink("run", dir / "latest");
+  {
+    RunDirectory run(dir / "latest", RunDirectory::Amend{{"axis_profiles.csv"}});
+    write_file(run.staging() / "axis_profiles.csv", "newer axis\n");
+    run.publish();
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "latest"));
+  EXPECT_EQ(read_file(target / "axis_profiles.csv"), "newer axis\n");
+  fs::remove(dir / "latest");
+
   const fs::path fresh = dir / "analysis";  // a missing target is created
   {
     RunDirectory out(fresh, RunDirectory::Amend{{"axis_profiles.csv"}});

@@ -172,6 +172,14 @@ void carry_over(const fs::path& from, const fs::path& to,
   for (const fs::path& directory : directories) sync_path(directory);
 }
 
+/// The directory an amendment of `target` changes: the one a symbolic link
+/// `target` points to (the swap would otherwise replace the link).
+fs::path resolve_amended_directory(const fs::path& target) {
+  const fs::path name = without_trailing_separator(target);
+  std::error_code ec;
+  return resolve_run_directory(fs::is_symlink(name, ec) ? fs::canonical(name) : name);
+}
+
 /// Puts `staging` in the place of the existing directory `target`; afterwards
 /// the earlier run is at the returned path.
 fs::path swap_into_place(const fs::path& staging, const fs::path& target) {
@@ -277,7 +285,7 @@ RunDirectory::RunDirectory(const fs::path& target)
 
 RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_run_directory(target)),
+      resolved_(resolve_amended_directory(target)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))),
       amend_(true),
