@@ -229,6 +229,21 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   return summary;
 }
 
+/// The one line of a run stopped by `signal` after its last step, before the
+/// swap (io/RunDirectory.hpp); its exit code.
+int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept,
+                       const std::filesystem::path& kept_path, int signal) {
+  const std::string next = kept.step > 0
+                               ? fmt::format("resume from the checkpoint of step {} with: {}",
+                                             kept.step, resume_command(options, kept_path))
+                               : std::string("no checkpoint was written: run the command again");
+  std::fprintf(stderr,
+               "ehlsim: interrupted by %s after the last step, before the run was published: "
+               "'%s' was not changed; %s\n",
+               signal_name(signal).c_str(), options.out_dir.c_str(), next.c_str());
+  return exit_code_for_signal(signal);
+}
+
 /// What run.json records under "invocation".
 nlohmann::json invocation_json(const ImpactOptions& options,
                                const std::optional<Checkpoint>& checkpoint,
@@ -285,17 +300,8 @@ int run_impact(const ImpactOptions& options) {
                  resume_command(options, kept_path).c_str());
     return exit_code_for_signal(signal);
   } catch (const PublishInterrupted& e) {
-    // After the last step, before the swap: DIR is left as it was.
-    run_dir.reset();
-    const std::string next = kept.step > 0
-                                 ? fmt::format("resume from the checkpoint of step {} with: {}",
-                                               kept.step, resume_command(options, kept_path))
-                                 : std::string("no checkpoint was written: run the command again");
-    std::fprintf(stderr,
-                 "ehlsim: interrupted by %s after the last step, before the run was published: "
-                 "'%s' was not changed; %s\n",
-                 signal_name(e.signal).c_str(), options.out_dir.c_str(), next.c_str());
-    return exit_code_for_signal(e.signal);
+    run_dir.reset();  // the staging directory goes; DIR is as it was
+    return report_unpublished(options, kept, kept_path, e.signal);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {

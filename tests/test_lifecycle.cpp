@@ -621,6 +621,19 @@ TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
   EXPECT_EQ(names_in(work.path()),
             (std::set<std::string>{"impact.err", "impact.out", "run", "run.checkpoint.nc"}));
 
+  // Without checkpoints (output.checkpoint_every = 0) there is nothing to resume from.
+  std::vector<std::string> without = args;
+  without.at(9) = "output.checkpoint_every=0";
+  const Child bare = start(without, work / "bare", "publish");
+  ASSERT_TRUE(wait_until_stopped(bare));
+  const Result unkept = resume(bare, SIGINT);
+  EXPECT_EQ(unkept.exit_code, 130);
+  EXPECT_EQ(unkept.err,
+            "ehlsim: interrupted by SIGINT after the last step, before the run was published: '" +
+                run.string() +
+                "' was not changed; no checkpoint was written: run the command again\n");
+  EXPECT_EQ(contents(run), before);
+
   // The hook only delays: let go without a signal, the run publishes what it
   // publishes without the hook.
   const Child again = start(args, work / "again", "publish");
