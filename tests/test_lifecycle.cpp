@@ -541,6 +541,26 @@ TEST(Lifecycle, ASignalEndsSpikeAndKeepsTheEarlierSpikeFiles) {
   }
 }
 
+TEST(Lifecycle, SpikeFailsRatherThanDropAFileAddedMeanwhile) {
+  TempDir work;
+  const fs::path run = run_with_earlier_spike_files(work);
+  const std::vector<std::string> before = contents(run);
+  const Child c = start({"spike", "--quiet", run.string()}, work / "spike", "publish");
+  ASSERT_TRUE(wait_until_stopped(c));
+  // After the links were made, before the swap: another program writes into DIR.
+  std::ofstream(run / "late.txt") << "written during the analysis\n";
+  const Result r = resume(c, 0);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "ehlsim: error: '" + run.string() +
+                       "' changed while its files were carried over (an entry added, removed or "
+                       "replaced by another program): it was left as it was\n");
+  std::vector<std::string> expected = before;
+  expected.push_back("late.txtwritten during the analysis\n");
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(contents(run), expected);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+}
+
 /// Whether `c` has ended (it stays waitable).
 bool has_ended(const Child& c) {
   siginfo_t info{};
