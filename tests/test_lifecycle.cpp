@@ -3,8 +3,11 @@
 // directory, foreign directories are refused, write errors and failures leave
 // the earlier run intact, signals checkpoint and clean up, a restart from that
 // checkpoint gives the uninterrupted run's bits, a busy directory is refused,
-// a rolling run stopped by SIGTERM leaves nothing, and `ehlsim study` passes a
-// signal on to its cases.
+// a rolling run stopped by SIGTERM leaves nothing, `ehlsim study` passes a
+// signal on to its cases, `ehlsim spike` replaces its three files in one swap,
+// and a signal before a swap (during an analysis, after the last step of a
+// run) leaves DIR as it was.  The test hook EHLSIM_TEST_STOP_AT stops the
+// process at a chosen point, so that a test can look and signal there.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
