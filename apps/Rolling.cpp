@@ -79,7 +79,13 @@ int run_rolling(const RollingOptions& options) {
                                      {"overrides", options.overrides},
                                      {"memory", memory_json(memory)}};
   write_rolling_run(run_dir.staging(), config, result, invocation, wall);
-  run_dir.publish(false);
+  try {
+    run_dir.publish(false);
+  } catch (const PublishInterrupted& e) {
+    std::fprintf(stderr, "ehlsim: interrupted by %s; nothing was written to %s\n",
+                 signal_name(e.signal).c_str(), options.out_dir.c_str());
+    return exit_code_for_signal(e.signal);
+  }
   if (!options.quiet) {
     fmt::print(
         "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "

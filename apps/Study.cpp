@@ -510,7 +510,13 @@ int run_study(const StudyOptions& options) {
       {"overrides", options.overrides},
       {"cases", nlohmann::json::array()}};
   for (const Case& c : cases) {
-    summary["cases"].push_back(case_summary(c));
+    try {
+      summary["cases"].push_back(case_summary(c));
+    } catch (const RunInterrupted&) {
+      return report_interruption(cases);  // the case keeps its earlier spike files
+    } catch (const PublishInterrupted&) {
+      return report_interruption(cases);
+    }
     ok = ok && c.exit_code == cli::kExitOk;
   }
   write_dry_reference(out / "dry.csv", reference);

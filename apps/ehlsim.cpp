@@ -229,6 +229,21 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   return summary;
 }
 
+/// The one line of a run stopped by `signal` after its last step, before the
+/// swap (io/RunDirectory.hpp); its exit code.
+int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept,
+                       const std::filesystem::path& kept_path, int signal) {
+  const std::string next = kept.step > 0
+                               ? fmt::format("resume from the checkpoint of step {} with: {}",
+                                             kept.step, resume_command(options, kept_path))
+                               : std::string("no checkpoint was written: run the command again");
+  std::fprintf(stderr,
+               "ehlsim: interrupted by %s after the last step, before the run was published: "
+               "'%s' was not changed; %s\n",
+               signal_name(signal).c_str(), options.out_dir.c_str(), next.c_str());
+  return exit_code_for_signal(signal);
+}
+
 /// What run.json records under "invocation".
 nlohmann::json invocation_json(const ImpactOptions& options,
                                const std::optional<Checkpoint>& checkpoint,
@@ -284,6 +299,9 @@ int run_impact(const ImpactOptions& options) {
                  signal_name(signal).c_str(), e.step, e.T,
                  resume_command(options, kept_path).c_str());
     return exit_code_for_signal(signal);
+  } catch (const PublishInterrupted& e) {
+    run_dir.reset();  // the staging directory goes; DIR is as it was
+    return report_unpublished(options, kept, kept_path, e.signal);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
@@ -326,17 +344,20 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
 int run_spike(const SpikeOptions& options) {
   const InterruptGuard interrupts;
   const std::filesystem::path out = options.out_dir.empty() ? options.run_dir : options.out_dir;
-  // Not while an impact run (or another analysis) writes there.
-  std::optional<PathLock> lock;
-  if (!out.empty()) lock.emplace(resolve_run_directory(out), out);
   RunAnalysisReport report;
-  try {
-    report = analyze_run_directory(options.run_dir, out, options.overrides);
-  } catch (const RunInterrupted&) {
+  const auto interrupted = [&out]() {
     const int signal = InterruptGuard::received();
     std::fprintf(stderr, "ehlsim: interrupted by %s: the spike files in '%s' were not changed\n",
                  signal_name(signal).c_str(), out.c_str());
     return exit_code_for_signal(signal);
+  };
+  try {
+    // A transaction on OUT, locked meanwhile (io/RunAnalysis.hpp).
+    report = analyze_run_directory(options.run_dir, out, options.overrides);
+  } catch (const RunInterrupted&) {
+    return interrupted();
+  } catch (const PublishInterrupted&) {
+    return interrupted();
   }
   if (!options.quiet) {
     fmt::print("{} snapshots analysed; wrote", report.snapshots);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <netcdf.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <span>
 #include <sstream>
@@ -1647,6 +1649,92 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
             "--out '" + (dir / "afile").string() + "' exists and is not a directory");
   EXPECT_EQ(message(""), "--out '': the run directory needs a name");
   EXPECT_EQ(names_in(dir / "user"), std::set<std::string>{"data.csv"});  // untouched
+}
+
+/// The inode of `path` (a hard link shares it).
+ino_t inode_of(const fs::path& path) {
+  struct stat status {};
+  EXPECT_EQ(lstat(path.c_str(), &status), 0) << path;
+  return status.st_ino;
+}
+
+TEST(RunDirectory, AnAmendmentReplacesItsFilesAndKeepsEverythingElse) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  write_file(target / "spike_profiles.csv", "old spike\n");
+  write_file(target / "notes.txt", "mine\n");  // not ehlsim's: carried, not refused
+  fs::create_directories(target / "gauss");
+  write_file(target / "gauss" / "spike_profiles.csv", "gauss\n");
+  const ino_t timeseries = inode_of(target / "timeseries.csv");
+  write_file(dir / "run.checkpoint.nc", "an interrupted run's\n");
+  {
+    RunDirectory run(target, RunDirectory::Amend{{"spike_profiles.csv", "axis_profiles.csv"}});
+    write_file(run.staging() / "spike_profiles.csv", "new spike\n");
+    write_file(run.staging() / "axis_profiles.csv", "new axis\n");
+    write_file(target / "late.txt", "came during the analysis\n");
+    EXPECT_EQ(read_file(target / "spike_profiles.csv"), "old spike\n");  // until publish
+    run.publish();
+  }
+  EXPECT_EQ(names_in(target), (std::set<std::string>{"axis_profiles.csv", "checkpoint.nc", "gauss",
+                                                     "late.txt", "notes.txt", "run.json",
+                                                     "spike_profiles.csv", "timeseries.csv"}));
+  EXPECT_EQ(read_file(target / "spike_profiles.csv"), "new spike\n");
+  EXPECT_EQ(read_file(target / "axis_profiles.csv"), "new axis\n");
+  EXPECT_EQ(read_file(target / "notes.txt"), "mine\n");
+  EXPECT_EQ(read_file(target / "late.txt"), "came during the analysis\n");
+  EXPECT_EQ(read_file(target / "gauss" / "spike_profiles.csv"), "gauss\n");
+  EXPECT_EQ(inode_of(target / "timeseries.csv"), timeseries);  // linked, not copied
+  // The checkpoint of an interrupted impact run into DIR is not the amendment's to remove.
+  EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+
+  // Through a symbolic link: the directory it points to changes, the link stays.
+  fs::create_directory_symlink("run", dir / "latest");
+  {
+    RunDirectory run(dir / "latest", RunDirectory::Amend{{"axis_profiles.csv"}});
+    write_file(run.staging() / "axis_profiles.csv", "newer axis\n");
+    run.publish();
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "latest"));
+  EXPECT_EQ(read_file(target / "axis_profiles.csv"), "newer axis\n");
+  fs::remove(dir / "latest");
+
+  const fs::path fresh = dir / "analysis";  // a missing target is created
+  {
+    RunDirectory out(fresh, RunDirectory::Amend{{"axis_profiles.csv"}});
+    write_file(out.staging() / "axis_profiles.csv", "axis\n");
+    out.publish();
+  }
+  EXPECT_EQ(names_in(fresh), std::set<std::string>{"axis_profiles.csv"});
+}
+
+TEST(RunDirectory, ASignalBeforeTheSwapLeavesTheTargetAsItWas) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  const InterruptGuard interrupts;
+  for (const bool amend : {false, true}) {
+    {
+      std::optional<RunDirectory> run;
+      if (amend) {
+        run.emplace(target, RunDirectory::Amend{{"timeseries.csv"}});
+      } else {
+        run.emplace(target);
+      }
+      write_file(run->staging() / "timeseries.csv", "new\n");
+      std::raise(SIGTERM);
+      try {
+        run->publish();
+        FAIL() << "published after SIGTERM";
+      } catch (const PublishInterrupted& e) {
+        EXPECT_EQ(e.signal, SIGTERM);
+      }
+      EXPECT_FALSE(run->published());
+    }
+    EXPECT_EQ(read_file(target / "timeseries.csv"), "old\n");
+    EXPECT_EQ(names_in(dir.path()), std::set<std::string>{"run"});  // staging and lock gone
+  }
+  const InterruptGuard clear;  // the flag outlives a guard: no later test may see it
 }
 
 TEST(PathLock, ASecondLockNamesTheHolderAndTheLockGoesWithIt) {

@@ -3,8 +3,11 @@
 // directory, foreign directories are refused, write errors and failures leave
 // the earlier run intact, signals checkpoint and clean up, a restart from that
 // checkpoint gives the uninterrupted run's bits, a busy directory is refused,
-// a rolling run stopped by SIGTERM leaves nothing, and `ehlsim study` passes a
-// signal on to its cases.
+// a rolling run stopped by SIGTERM leaves nothing, `ehlsim study` passes a
+// signal on to its cases, `ehlsim spike` replaces its three files in one swap,
+// and a signal before a swap (during an analysis, after the last step of a
+// run) leaves DIR as it was.  The test hook EHLSIM_TEST_STOP_AT stops the
+// process at a chosen point, so that a test can look and signal there.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
@@ -65,7 +68,9 @@ struct Child {
   fs::path err;
 };
 
-Child start(const std::vector<std::string>& args, const fs::path& capture) {
+/// `stop_at`: the test hook EHLSIM_TEST_STOP_AT (docs/usage.md, "Test hooks").
+Child start(const std::vector<std::string>& args, const fs::path& capture,
+            const std::string& stop_at = "") {
   Child c{-1, capture.string() + ".out", capture.string() + ".err"};
   std::vector<std::string> argv_strings = {EHLSIM_BINARY};
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());
@@ -78,6 +83,7 @@ Child start(const std::vector<std::string>& args, const fs::path& capture) {
     const int err = open(c.err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(out, STDOUT_FILENO);
     dup2(err, STDERR_FILENO);
+    if (!stop_at.empty()) setenv("EHLSIM_TEST_STOP_AT", stop_at.c_str(), 1);
     execv(EHLSIM_BINARY, argv.data());
     _exit(127);
   }
@@ -98,6 +104,24 @@ int exit_code_of(const Child& c) {
   int status = 0;
   waitpid(c.pid, &status, 0);
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+/// Waits until `c` has stopped itself at its EHLSIM_TEST_STOP_AT point (false
+/// when it ended instead).
+bool wait_until_stopped(const Child& c) {
+  int status = 0;
+  return waitpid(c.pid, &status, WUNTRACED) == c.pid && WIFSTOPPED(status);
+}
+
+/// Sends `signal` (0: none) to the stopped `c`, lets it go on and returns how it ended.
+Result resume(const Child& c, int signal) {
+  if (signal != 0) kill(c.pid, signal);
+  kill(c.pid, SIGCONT);
+  Result r;
+  r.exit_code = exit_code_of(c);
+  r.out = read_file(c.out);
+  r.err = read_file(c.err);
+  return r;
 }
 
 /// Starts a long run into `dir`, waits for its first step, sends `signal`.
@@ -443,6 +467,206 @@ TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
   EXPECT_NE(out.find("(exit 143): ehlsim: interrupted by SIGTERM"), std::string::npos) << out;
   EXPECT_TRUE(fs::exists(study / "M100.checkpoint.nc"));
   EXPECT_TRUE(fs::exists(study / "M50.checkpoint.nc"));
+}
+
+// ----------------------------------------------------------- ehlsim spike, publishing
+
+const std::vector<std::string> kSpikeFiles = {"spike_snapshots.csv", "spike_profiles.csv",
+                                              "axis_profiles.csv"};
+
+/// The bytes of the named files of `dir`.
+std::vector<std::string> contents_of(const fs::path& dir, const std::vector<std::string>& names) {
+  std::vector<std::string> files;
+  for (const std::string& name : names) files.push_back(read_file(dir / name));
+  return files;
+}
+
+/// A finished 33^2 run in `work`/run with a snapshot per step, and three
+/// earlier spike files told apart from any new ones by their content.
+fs::path run_with_earlier_spike_files(const TempDir& work) {
+  const fs::path run = work / "run";
+  EXPECT_EQ(run_into(run, "--set time.T_end=0.3 --set output.snapshot_every=1").exit_code, 0);
+  for (const std::string& name : kSpikeFiles) std::ofstream(run / name) << "earlier " << name;
+  return run;
+}
+
+TEST(Lifecycle, SpikeReplacesItsThreeFilesInOneStep) {
+  TempDir work;
+  const fs::path run = run_with_earlier_spike_files(work);
+  std::ofstream(run / "notes.txt") << "mine\n";  // the user's: stays
+  const std::vector<std::string> before = contents(run);
+  const TempDir elsewhere("expected");
+  const fs::path expected = elsewhere / "spike";
+  ASSERT_EQ(ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote(expected.string()))
+                .exit_code,
+            0);
+  EXPECT_EQ(names_in(expected), std::set<std::string>(kSpikeFiles.begin(), kSpikeFiles.end()));
+
+  const Child c = start({"spike", "--quiet", run.string()}, work / "spike", "publish");
+  ASSERT_TRUE(wait_until_stopped(c));
+  // Just before the swap: DIR holds the earlier complete set, the staging
+  // directory the new complete set beside links of everything else.
+  EXPECT_EQ(contents(run), before);
+  const fs::path staging = work / (".run.part-" + std::to_string(c.pid));
+  EXPECT_EQ(names_in(staging), names_in(run));
+  EXPECT_EQ(contents_of(staging, kSpikeFiles), contents_of(expected, kSpikeFiles));
+  const Result r = resume(c, 0);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(contents_of(run, kSpikeFiles), contents_of(expected, kSpikeFiles));
+  std::vector<std::string> rest = contents(run);
+  std::vector<std::string> rest_before = before;
+  const auto is_spike_file = [](const std::string& entry) {
+    return std::any_of(kSpikeFiles.begin(), kSpikeFiles.end(),
+                       [&](const std::string& name) { return entry.starts_with(name); });
+  };
+  std::erase_if(rest, is_spike_file);
+  std::erase_if(rest_before, is_spike_file);
+  EXPECT_EQ(rest, rest_before);  // every other file as it was
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+}
+
+TEST(Lifecycle, ASignalEndsSpikeAndKeepsTheEarlierSpikeFiles) {
+  // In the middle of the analysis (after its first snapshot) and just before the swap.
+  for (const auto& [point, signal, code, name] : {std::tuple{"analysis", SIGTERM, 143, "SIGTERM"},
+                                                  std::tuple{"publish", SIGINT, 130, "SIGINT"}}) {
+    TempDir work(point);
+    const fs::path run = run_with_earlier_spike_files(work);
+    const std::vector<std::string> before = contents(run);
+    const Child c = start({"spike", run.string()}, work / "spike", point);
+    ASSERT_TRUE(wait_until_stopped(c)) << point;
+    const Result r = resume(c, signal);
+    EXPECT_EQ(r.exit_code, code) << point;
+    EXPECT_EQ(r.err, std::string("ehlsim: interrupted by ") + name + ": the spike files in '" +
+                         run.string() + "' were not changed\n");
+    EXPECT_EQ(contents(run), before) << point;
+    // No staging directory, no .part file, no lock.
+    EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+  }
+}
+
+TEST(Lifecycle, SpikeFailsRatherThanDropAFileAddedMeanwhile) {
+  TempDir work;
+  const fs::path run = run_with_earlier_spike_files(work);
+  const std::vector<std::string> before = contents(run);
+  const Child c = start({"spike", "--quiet", run.string()}, work / "spike", "publish");
+  ASSERT_TRUE(wait_until_stopped(c));
+  // After the links were made, before the swap: another program writes into DIR.
+  std::ofstream(run / "late.txt") << "written during the analysis\n";
+  const Result r = resume(c, 0);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "ehlsim: error: '" + run.string() +
+                       "' changed while its files were carried over (an entry added, removed or "
+                       "replaced by another program): it was left as it was\n");
+  std::vector<std::string> expected = before;
+  expected.push_back("late.txtwritten during the analysis\n");
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(contents(run), expected);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+}
+
+/// Whether `c` has ended (it stays waitable).
+bool has_ended(const Child& c) {
+  siginfo_t info{};
+  return waitid(P_PID, static_cast<id_t>(c.pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+         info.si_pid == c.pid;
+}
+
+/// With a real signal at a moment the test does not choose (no hook): `ehlsim
+/// spike` ends either published (exit 0, the new set) or interrupted (exit
+/// 143, the earlier set), never with a mix or debris.
+TEST(Lifecycle, SpikeSignalledAnyTimeLeavesOneCompleteSet) {
+  TempDir work;
+  const fs::path run = work / "run";
+  // 417 snapshots of 33^2 (1 s; 10 s under the sanitizers).
+  const Child impact = start({"impact", "--quiet", "--out", run.string(), "--set", "grid.points=33",
+                              "--set", "time.dT=0.01", "--set", "output.snapshot_every=1"},
+                             work / "impact");
+  ASSERT_EQ(exit_code_of(impact), 0) << read_file(impact.err);
+  const TempDir elsewhere("expected");
+  ASSERT_EQ(ehlsim("spike --quiet " + quote(run.string()) + " --out " +
+                   quote((elsewhere / "spike").string()))
+                .exit_code,
+            0);
+  const std::vector<std::string> fresh = contents_of(elsewhere / "spike", kSpikeFiles);
+  int interrupted = 0;
+  // The analysis takes 0.1 to 0.3 s: the later signals may come after the swap.
+  for (const int delay_ms : {0, 20, 100, 400}) {
+    for (const std::string& name : kSpikeFiles) std::ofstream(run / name) << "earlier " << name;
+    const std::vector<std::string> earlier = contents_of(run, kSpikeFiles);
+    const Child c = start({"spike", "--quiet", run.string()}, work / "spike");
+    // Once it holds the lock (or has ended already).
+    const fs::path staging = work / (".run.part-" + std::to_string(c.pid));
+    const auto until = std::chrono::steady_clock::now() + kPatience;
+    while (!fs::exists(staging) && !has_ended(c) && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    kill(c.pid, SIGTERM);
+    const int code = exit_code_of(c);
+    if (code == 0) {
+      EXPECT_EQ(contents_of(run, kSpikeFiles), fresh) << delay_ms;
+    } else {
+      ++interrupted;
+      EXPECT_EQ(code, 143) << delay_ms;
+      EXPECT_EQ(read_file(c.err), "ehlsim: interrupted by SIGTERM: the spike files in '" +
+                                      run.string() + "' were not changed\n");
+      EXPECT_EQ(contents_of(run, kSpikeFiles), earlier) << delay_ms;
+    }
+    EXPECT_EQ(names_in(work.path()),
+              (std::set<std::string>{"impact.err", "impact.out", "run", "spike.err", "spike.out"}))
+        << delay_ms;
+  }
+  EXPECT_GT(interrupted, 0);  // the signal right after the lock comes before the swap
+}
+
+TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const std::vector<std::string> args = {"impact", "--quiet",
+                                         "--set",  "grid.points=33",
+                                         "--set",  "body.elastic=false",
+                                         "--set",  "time.T_end=0.3",
+                                         "--set",  "output.checkpoint_every=2",
+                                         "--out",  run.string()};
+  // After the last step, its files written into the staging directory.
+  const Child c = start(args, work / "impact", "publish");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const Result r = resume(c, SIGTERM);
+  EXPECT_EQ(r.exit_code, 143);
+  const std::regex message(
+      "ehlsim: interrupted by SIGTERM after the last step, before the run was published: '" +
+      run.string() +
+      "' was not changed; resume from the checkpoint of step [0-9]+ with: .* --restart " +
+      (work / "run.checkpoint.nc").string() + " --quiet\n");
+  EXPECT_TRUE(std::regex_match(r.err, message)) << r.err;
+  EXPECT_EQ(contents(run), before);
+  EXPECT_EQ(names_in(work.path()),
+            (std::set<std::string>{"impact.err", "impact.out", "run", "run.checkpoint.nc"}));
+
+  // Without checkpoints (output.checkpoint_every = 0) there is nothing to resume from.
+  std::vector<std::string> without = args;
+  without.at(9) = "output.checkpoint_every=0";
+  const Child bare = start(without, work / "bare", "publish");
+  ASSERT_TRUE(wait_until_stopped(bare));
+  const Result unkept = resume(bare, SIGINT);
+  EXPECT_EQ(unkept.exit_code, 130);
+  EXPECT_EQ(unkept.err,
+            "ehlsim: interrupted by SIGINT after the last step, before the run was published: '" +
+                run.string() +
+                "' was not changed; no checkpoint was written: run the command again\n");
+  EXPECT_EQ(contents(run), before);
+
+  // The hook only delays: let go without a signal, the run publishes what it
+  // publishes without the hook.
+  const Child again = start(args, work / "again", "publish");
+  ASSERT_TRUE(wait_until_stopped(again));
+  ASSERT_EQ(resume(again, 0).exit_code, 0);
+  const fs::path plain = work / "plain";
+  ASSERT_EQ(run_into(plain, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  EXPECT_EQ(read_file(run / "timeseries.csv"), read_file(plain / "timeseries.csv"));
+  EXPECT_EQ(nlohmann::json::parse(read_file(run / "run.json"))["results"],
+            nlohmann::json::parse(read_file(plain / "run.json"))["results"]);
 }
 
 }  // namespace

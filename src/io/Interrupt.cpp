@@ -2,11 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
+
 namespace ehlsim {
 
 namespace {
 
 constexpr int kExitSignalBase = 128;
+constexpr const char* kTestStopVariable = "EHLSIM_TEST_STOP_AT";
 
 // The one piece of global state: a signal handler can only talk through it.
 volatile std::sig_atomic_t g_received = 0;
@@ -53,5 +56,15 @@ InterruptGuard::~InterruptGuard() {
 }
 
 int InterruptGuard::received() { return g_received; }
+
+PublishInterrupted::PublishInterrupted(int signal_number)
+    : std::runtime_error(
+          fmt::format("interrupted by {} before publishing", signal_name(signal_number))),
+      signal(signal_number) {}
+
+void stop_here_for_tests(std::string_view point) {
+  const char* wanted = std::getenv(kTestStopVariable);
+  if (wanted != nullptr && point == wanted) std::raise(SIGSTOP);
+}
 
 }  // namespace ehlsim

@@ -6,7 +6,9 @@
 // ignored, so that the write fails with EFBIG and is reported like a full disk.
 #include <array>
 #include <csignal>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "impact/ImpactObserver.hpp"
 
@@ -35,6 +37,20 @@ class InterruptGuard {
   static constexpr std::array<int, 4> kHandled = {SIGINT, SIGTERM, SIGHUP, SIGXFSZ};
   std::array<struct sigaction, kHandled.size()> previous_{};
 };
+
+/// Thrown by RunDirectory::publish when a signal came before the new contents
+/// replaced the target: the target was left as it was.
+class PublishInterrupted : public std::runtime_error {
+ public:
+  explicit PublishInterrupted(int signal_number);
+  int signal;
+};
+
+/// A test hook (docs/usage.md, "Test hooks"): when the environment variable
+/// EHLSIM_TEST_STOP_AT equals `point`, the process stops itself with SIGSTOP
+/// here, so that a test can look at the files at this exact point and send a
+/// signal before it continues (SIGCONT).  Only ever delays the process.
+void stop_here_for_tests(std::string_view point);
 
 /// Asks the run to stop at the end of the current step once a signal came.
 class StopOnSignal final : public ImpactObserver {

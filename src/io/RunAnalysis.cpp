@@ -10,6 +10,7 @@
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
+#include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
 
@@ -69,16 +70,10 @@ double run_parameter(const nlohmann::json& run, const char* section, const char*
   }
 }
 
-}  // namespace
-
-RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
-                                        const std::filesystem::path& out_dir,
-                                        const std::vector<std::string>& overrides) {
-  std::error_code ec;
-  if (!std::filesystem::is_directory(run_dir, ec)) {
-    throw ConfigError(
-        fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
-  }
+/// The analysis of `run_dir` written into the directory `staging`.
+RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
+                                 const std::filesystem::path& staging,
+                                 const std::vector<std::string>& overrides) {
   const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
   const nlohmann::json run = read_run_json(run_file);
   const SpikeSettings settings = load_config(std::nullopt, spike_overrides(run, overrides)).spike;
@@ -92,16 +87,15 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
     throw ConfigError(e.what());
   }
 
-  std::filesystem::create_directories(out_dir);
   RunAnalysisReport report;
-  report.files = {out_dir / kSpikeSnapshotsFile, out_dir / kSpikeProfilesFile,
-                  out_dir / kAxisProfilesFile};
+  report.files = {staging / kSpikeSnapshotsFile, staging / kSpikeProfilesFile,
+                  staging / kAxisProfilesFile};
   SpikeSeriesWriter series(report.files[0]);
   ProfileWriter radial(report.files[1], "T,R,P_filtered");
   ProfileWriter axis(report.files[2], "T,X,P");
   for (std::size_t k = 0; k < fields->times().size(); ++k) {
     const double T = fields->times()[k];
-    // A signal: stop before anything is renamed (the .part files go with the writers).
+    // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
     const SpikeAnalysis analysis =
         analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
@@ -109,10 +103,31 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
     radial.append(T, analysis.filtered);
     axis.append(T, analysis.axis);
     ++report.snapshots;
+    if (k == 0) stop_here_for_tests("analysis");
   }
   series.commit();
   radial.commit();
   axis.commit();
+  return report;
+}
+
+}  // namespace
+
+RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
+                                        const std::filesystem::path& out_dir,
+                                        const std::vector<std::string>& overrides) {
+  // First: OUT locked (not while an impact run or another analysis writes
+  // there; a busy RUN_DIR is named as such, not as missing).
+  RunDirectory out(
+      out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
+  std::error_code ec;
+  if (!std::filesystem::is_directory(run_dir, ec)) {
+    throw ConfigError(
+        fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
+  }
+  RunAnalysisReport report = write_analysis(run_dir, out.staging(), overrides);
+  out.publish();
+  for (std::filesystem::path& file : report.files) file = out_dir / file.filename();
   return report;
 }
 

@@ -19,11 +19,16 @@ inline constexpr const char* kSpikeSnapshotsFile = "spike_snapshots.csv";
 inline constexpr const char* kSpikeProfilesFile = "spike_profiles.csv";
 inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
 
-/// Analyses `run_dir` into `out_dir` (created if missing).  `overrides` are
-/// "spike.key=value" assignments applied after the run's own spike settings.
-/// Throws ConfigError (a bad input: no such directory, no complete run in it,
-/// an unreadable fields.nc or run.json, a key outside [spike], a bad value)
-/// or std::runtime_error (the output cannot be written).
+/// Analyses `run_dir` into `out_dir` (created if missing; may be `run_dir`)
+/// as one transaction (io/RunDirectory.hpp, an amendment): a reader of
+/// `out_dir` sees its earlier three files or the three new ones, never a mix,
+/// and nothing else in `out_dir` changes.  `out_dir` is locked meanwhile.
+/// `overrides` are "spike.key=value" assignments applied after the run's own
+/// spike settings.  Throws ConfigError (a bad input: no such directory, no
+/// complete run in it, an unreadable fields.nc or run.json, a key outside
+/// [spike], a bad value, a busy `out_dir`), std::runtime_error (the output
+/// cannot be written), RunInterrupted (a signal during the analysis) or
+/// PublishInterrupted (a signal before the swap); then `out_dir` is as it was.
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
                                         const std::filesystem::path& out_dir,
                                         const std::vector<std::string>& overrides);

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <chrono>
@@ -21,6 +22,7 @@
 
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
+#include "io/Interrupt.hpp"
 #include "io/Parameters.hpp"
 
 namespace ehlsim {
@@ -117,6 +119,65 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
         fmt::format("cannot copy '{}' to '{}': {}", from.string(), to.string(), ec.message()));
   }
   sync_path(to);
+}
+
+/// Every entry below `dir` (links not followed) but the `skipped` names in
+/// `dir` itself, parents before their children; none when `dir` is missing.
+std::vector<CarriedEntry> entries_below(const fs::path& dir,
+                                        const std::vector<std::string>& skipped) {
+  std::vector<CarriedEntry> entries;
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(dir, ec))) return entries;
+  for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator();
+       ++it) {
+    const std::string name = it->path().filename().string();
+    if (it.depth() == 0 && std::find(skipped.begin(), skipped.end(), name) != skipped.end()) {
+      it.disable_recursion_pending();
+      continue;
+    }
+    struct stat status {};
+    if (lstat(it->path().c_str(), &status) != 0) {
+      throw std::runtime_error(
+          fmt::format("cannot read '{}': {}", it->path().string(), system_message(errno)));
+    }
+    entries.push_back({it->path().lexically_relative(dir), status.st_dev, status.st_ino});
+  }
+  std::sort(entries.begin(), entries.end(),
+            [](const CarriedEntry& a, const CarriedEntry& b) { return a.relative < b.relative; });
+  return entries;
+}
+
+/// Recreates `entries` of `from` in the empty directory `to`: directories
+/// made anew, files hard-linked (copied where that fails), symbolic links
+/// copied; synced to disk.
+void carry_over(const fs::path& from, const fs::path& to,
+                const std::vector<CarriedEntry>& entries) {
+  std::vector<fs::path> directories;
+  for (const CarriedEntry& entry : entries) {
+    const fs::path source = from / entry.relative;
+    const fs::path copy = to / entry.relative;
+    const fs::file_status status = fs::symlink_status(source);
+    if (fs::is_directory(status)) {
+      fs::create_directory(copy);
+      directories.push_back(copy);
+    } else if (fs::is_symlink(status)) {
+      fs::copy_symlink(source, copy);
+    } else if (fs::is_regular_file(status)) {
+      link_or_copy(source, copy);
+    } else {
+      throw std::runtime_error(fmt::format(
+          "cannot carry '{}' over: not a file, directory or symbolic link", source.string()));
+    }
+  }
+  for (const fs::path& directory : directories) sync_path(directory);
+}
+
+/// The directory an amendment of `target` changes: the one a symbolic link
+/// `target` points to (the swap would otherwise replace the link).
+fs::path resolve_amended_directory(const fs::path& target) {
+  const fs::path name = without_trailing_separator(target);
+  std::error_code ec;
+  return resolve_run_directory(fs::is_symlink(name, ec) ? fs::canonical(name) : name);
 }
 
 /// Puts `staging` in the place of the existing directory `target`; afterwards
@@ -222,6 +283,22 @@ RunDirectory::RunDirectory(const fs::path& target)
   fs::create_directory(staging_);
 }
 
+RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
+    : target_(without_trailing_separator(target)),
+      resolved_(resolve_amended_directory(target)),
+      lock_(resolved_, target_),
+      staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))),
+      amend_(true),
+      replaced_(amend.replaced) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(target_, ec);
+  if (fs::exists(status) && !fs::is_directory(status)) {
+    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", target_.string()));
+  }
+  remove_debris(resolved_);
+  fs::create_directory(staging_);
+}
+
 RunDirectory::~RunDirectory() {
   if (published_) return;
   std::error_code ec;  // nothing to report from a destructor
@@ -232,12 +309,16 @@ fs::path RunDirectory::checkpoint() const { return sibling(target_, "", kCheckpo
 
 void RunDirectory::publish(bool with_checkpoint) {
   if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);
-  sync_path(staging_);
-  try {
-    check_replaceable_run_directory(target_);  // a file put there during the run stays
-  } catch (const ConfigError& e) {
-    throw std::runtime_error(e.what());
+  if (amend_) {
+    // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
+    // it only against other ehlsim processes).
+    carried_ = entries_below(resolved_, replaced_);
+    carry_over(resolved_, staging_, carried_);
   }
+  sync_path(staging_);
+  stop_here_for_tests("publish");
+  check_target_unchanged();
+  if (const int signal = InterruptGuard::received(); signal != 0) throw PublishInterrupted(signal);
   fs::path old;
   if (fs::exists(resolved_)) {
     old = swap_into_place(staging_, resolved_);
@@ -248,7 +329,24 @@ void RunDirectory::publish(bool with_checkpoint) {
   sync_path(resolved_.parent_path());
   std::error_code ec;  // leftovers are the next run's debris, not this run's failure
   if (!old.empty()) fs::remove_all(old, ec);
-  fs::remove(checkpoint(), ec);
+  // A new run supersedes the checkpoint of an interrupted one; an amendment does not.
+  if (!amend_) fs::remove(checkpoint(), ec);
+}
+
+void RunDirectory::check_target_unchanged() const {
+  if (!amend_) {
+    try {
+      check_replaceable_run_directory(target_);  // a file put there during the run stays
+    } catch (const ConfigError& e) {
+      throw std::runtime_error(e.what());
+    }
+  } else if (entries_below(resolved_, replaced_) != carried_) {
+    // The swap would drop what came meanwhile, or bring back what went.
+    throw std::runtime_error(
+        fmt::format("'{}' changed while its files were carried over (an entry added, removed or "
+                    "replaced by another program): it was left as it was",
+                    target_.string()));
+  }
 }
 
 }  // namespace ehlsim

@@ -16,8 +16,17 @@
 // removes the earlier run.  A RunDirectory destroyed unpublished removes its
 // staging directory.  Debris of a killed run (staging, swapped-out old runs)
 // is removed by the next run into DIR, which holds the lock.
+//
+// A new run replaces DIR as a whole.  An amendment (`ehlsim spike`, which
+// rewrites its three files in a run directory) replaces only some files: just
+// before the swap the staging directory gets hard links of everything else in
+// DIR, so the same swap publishes the new files together and nothing else
+// changes.
+#include <sys/types.h>
+
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace ehlsim {
 
@@ -41,12 +50,32 @@ class PathLock {
   int fd_ = -1;
 };
 
+/// An entry below a directory, by its relative path and its inode: what an
+/// amendment carries over, and how it notices a change of DIR meanwhile.
+struct CarriedEntry {
+  std::filesystem::path relative;
+  dev_t device = 0;
+  ino_t inode = 0;
+  friend bool operator==(const CarriedEntry&, const CarriedEntry&) = default;
+};
+
 class RunDirectory {
  public:
-  /// Locks `target`, checks that it is missing, empty or an earlier ehlsim run
-  /// (else ConfigError naming the first foreign file), removes the debris of
-  /// killed runs and creates a fresh staging directory.
+  /// The names (in DIR itself) that an amendment writes anew.
+  struct Amend {
+    std::vector<std::string> replaced;
+  };
+
+  /// A new run: locks `target`, checks that it is missing, empty or an earlier
+  /// ehlsim run (else ConfigError naming the first foreign file), removes the
+  /// debris of killed runs and creates a fresh staging directory.
   explicit RunDirectory(const std::filesystem::path& target);
+  /// An amendment of `target` (missing, or a directory: else ConfigError):
+  /// locks it, removes the debris of killed runs and creates a fresh staging
+  /// directory for the files named in `amend.replaced`.  publish() adds every
+  /// other entry of `target` as a hard link (a copy where links fail) and
+  /// throws std::runtime_error when one cannot be carried over.
+  RunDirectory(const std::filesystem::path& target, const Amend& amend);
   ~RunDirectory();
   RunDirectory(const RunDirectory&) = delete;
   RunDirectory& operator=(const RunDirectory&) = delete;
@@ -60,8 +89,12 @@ class RunDirectory {
 
   /// Makes the staged run DIR (with `checkpoint()` as DIR/checkpoint.nc when
   /// `with_checkpoint`).  Throws std::runtime_error when a file cannot be
-  /// synced or renamed; DIR then still holds the earlier run.
-  void publish(bool with_checkpoint);
+  /// synced or renamed, or when DIR changed meanwhile (a foreign file in it,
+  /// an entry of an amended DIR added, removed or replaced); PublishInterrupted
+  /// when SIGINT, SIGTERM or SIGHUP came before the swap (io/Interrupt.hpp).
+  /// DIR then still holds the earlier run.  The swap is the commit point: a
+  /// signal after it does not undo the published run.
+  void publish(bool with_checkpoint = false);
   [[nodiscard]] bool published() const { return published_; }
 
  private:
@@ -69,7 +102,13 @@ class RunDirectory {
   std::filesystem::path resolved_;  ///< absolute, symlinks of the parents resolved
   PathLock lock_;
   std::filesystem::path staging_;
+  bool amend_ = false;
+  std::vector<std::string> replaced_;  ///< amendment: the names written anew
+  std::vector<CarriedEntry> carried_;  ///< amendment: what was carried over from DIR
   bool published_ = false;
+
+  /// Throws std::runtime_error when DIR may no longer be replaced by the staging directory.
+  void check_target_unchanged() const;
 };
 
 /// `target` absolute, without a trailing separator, with the symbolic links of
