@@ -113,15 +113,20 @@ bool wait_until_stopped(const Child& c) {
   return waitpid(c.pid, &status, WUNTRACED) == c.pid && WIFSTOPPED(status);
 }
 
-/// Sends `signal` (0: none) to the stopped `c`, lets it go on and returns how it ended.
-Result resume(const Child& c, int signal) {
-  if (signal != 0) kill(c.pid, signal);
-  kill(c.pid, SIGCONT);
+/// How `c` ended: its exit code and what it printed.
+Result result_of(const Child& c) {
   Result r;
   r.exit_code = exit_code_of(c);
   r.out = read_file(c.out);
   r.err = read_file(c.err);
   return r;
+}
+
+/// Sends `signal` (0: none) to the stopped `c`, lets it go on and returns how it ended.
+Result resume(const Child& c, int signal) {
+  if (signal != 0) kill(c.pid, signal);
+  kill(c.pid, SIGCONT);
+  return result_of(c);
 }
 
 /// Starts a long run into `dir`, waits for its first step, sends `signal`.
@@ -132,11 +137,7 @@ Result interrupted_run(const fs::path& dir, int signal, std::vector<std::string>
   const Child c = start(args, dir.string() + "-capture");
   EXPECT_TRUE(wait_for_text(c.err, "step 1 "));
   kill(c.pid, signal);
-  Result r;
-  r.exit_code = exit_code_of(c);
-  r.out = read_file(c.out);
-  r.err = read_file(c.err);
-  return r;
+  return result_of(c);
 }
 
 /// The last line of `text`.
