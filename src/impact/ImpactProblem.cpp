@@ -207,7 +207,7 @@ struct ImpactProblem::Impl {
   int last_cycles = 0;
   double work_at_step_start = 0.0;
   /// The run's summary so far; the solver counters (unconverged and retried
-  /// steps) are kept in it by solve_time_step.
+  /// steps) are kept in it by advance_step.
   RunSummary summary;
   double last_residual = 0.0;
   double start_residual = 0.0;  ///< residual of the step's initial approximation

@@ -28,7 +28,8 @@ class ImpactProblem {
   /// Marches from Delta0 until lift-off, rest in the film (or T_end); reports
   /// every step to `observer`.  Throws std::runtime_error when the iteration of
   /// a time step diverges, RunFailure (impact/RunGuards.hpp) when a step breaks
-  /// a physics guard or the step cap; a step none of whose attempts converged
+  /// a physics guard or the step cap; a step none of whose attempts converges
+  /// is solved in halves (down to dT / 4); one whose quarter steps still did not converge
   /// keeps its best iterate, if that is at most 100 times above
   /// solver.tolerance, and is counted in RunSummary::unconverged_steps.  Throws RunInterrupted
   /// after a step when observer.stop_requested().
