@@ -139,8 +139,10 @@ struct ImpactProblem::Impl {
   /// Advances `run` by one time step dT (step `step`): as one implicit step,
   /// or in halves when none of its attempts converges.
   void advance_step(int step, RunProgress& run);
-  /// Advances `run` over [T, T + dt], `depth` halvings below a whole step.
-  void advance_interval(int step, RunProgress& run, double dt, int depth);
+  /// Advances `run` over [T, T + dt], `depth` halvings below a whole step,
+  /// from `start`, the state of `run` and of the solver now.
+  void advance_interval(int step, RunProgress& run, double dt, int depth,
+                        const IntervalStart& start);
   /// The best iterate of an interval solved whole, kept should its halves do worse.
   struct WholeInterval {
     Field P;
@@ -402,17 +404,14 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, Bes
 
 void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
   tally = StepTally{};
-  const Field P_start = solver->solution();
-  const Field rhoH_start = rhoH_now;
-  const double force_start = run.force_now;
-  const double T_start = run.ball.T;
-  advance_interval(step, run, dT, 0);
+  const IntervalStart start = interval_start(run);
+  advance_interval(step, run, dT, 0, start);
   if (tally.splits > 0) {
     // The next step sees the levels T and T + dT, as after an unsplit step.
-    rhoH_old = rhoH_start;
-    P_before = P_start;
-    run.force_before = force_start;
-    run.ball.T = T_start + dT;
+    rhoH_old = start.rhoH_now;
+    P_before = start.P;
+    run.force_before = start.force_now;
+    run.ball.T = start.ball.T + dT;
     level_spacing = dT;
     levels_done = step;
   }
@@ -420,8 +419,8 @@ void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
   if (tally.unconverged) ++summary.unconverged_steps;
 }
 
-void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt, int depth) {
-  const IntervalStart start = interval_start(run);
+void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt, int depth,
+                                           const IntervalStart& start) {
   std::optional<StepSolve> solved;
   try {
     solved = solve_time_step(step, run, dt);
@@ -439,8 +438,8 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     const StepTally before = tally;
     ++tally.splits;
     tally.retried = true;
-    advance_interval(step, run, 0.5 * dt, depth + 1);
-    advance_interval(step, run, 0.5 * dt, depth + 1);
+    advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
+    advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
     if (whole && tally.unconverged && tally.residual > whole->residual)
       keep_whole_interval(*whole, start, before, run, dt);
     return;
