@@ -438,10 +438,16 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     const StepTally before = tally;
     ++tally.splits;
     tally.retried = true;
+    // The halves are judged on their own: an earlier sibling interval of the
+    // same step may have been kept above the tolerance already.
+    tally.residual = 0.0;
+    tally.unconverged = false;
     advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
     advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
-    if (whole && tally.unconverged && tally.residual > whole->residual)
-      keep_whole_interval(*whole, start, before, run, dt);
+    const bool halves_worse = whole && tally.unconverged && tally.residual > whole->residual;
+    tally.residual = std::max(tally.residual, before.residual);
+    tally.unconverged = tally.unconverged || before.unconverged;
+    if (halves_worse) keep_whole_interval(*whole, start, before, run, dt);
     return;
   }
   if (!solved->converged) tally.unconverged = tally.retried = true;
