@@ -52,7 +52,7 @@ struct RunResult {
   Field last_P, last_H;  ///< fields of the last step
   /// Per step: radius of the pressure maximum along Y = 0, X >= 0 (the spike).
   std::vector<double> spike_radius;
-  /// residuals[step][cycle]: the cycle monitor (cycle 0 = before the first cycle).
+  /// residuals[step][cycle]: from on_cycle (cycle 0 = before the first cycle).
   std::vector<std::vector<double>> residuals;
   double seconds = 0.0;
   std::string error;  ///< non-empty when run() threw
@@ -79,6 +79,13 @@ class Recorder final : public ImpactObserver {
       if (P(i, c) > P(i_max, c)) i_max = i;
     out_.spike_radius.push_back(out_.grid.x(i_max));
   }
+  void on_cycle(const CycleRecord& c) override {
+    if (static_cast<int>(out_.residuals.size()) <= c.step) out_.residuals.resize(c.step + 1);
+    auto& r = out_.residuals[c.step];
+    if (c.cycle == 0) r.clear();  // a retried step: keep the last attempt only
+    if (static_cast<int>(r.size()) <= c.cycle) r.resize(c.cycle + 1);
+    r[c.cycle] = c.residual;
+  }
   void on_finish(const RunSummary& summary) override { out_.summary = summary; }
 
  private:
@@ -91,13 +98,6 @@ RunResult run_case(const ImpactConfig& cfg) {
   const auto start = std::chrono::steady_clock::now();
   try {
     ImpactProblem problem(cfg);
-    problem.set_cycle_monitor([&out](int step, int cycle, double residual) {
-      if (static_cast<int>(out.residuals.size()) <= step) out.residuals.resize(step + 1);
-      auto& r = out.residuals[step];
-      if (cycle == 0) r.clear();  // a retried step: keep the last attempt only
-      if (static_cast<int>(r.size()) <= cycle) r.resize(cycle + 1);
-      r[cycle] = residual;
-    });
     Recorder recorder(out);
     out.summary = problem.run(recorder);
   } catch (const std::exception& e) {
@@ -581,7 +581,7 @@ TEST(RigidSqueezeFilm, BallFollowsTheSqueezeFilmLawAndStops) {
 
 // ========================================== 4. multigrid convergence factors
 
-// The residual reduction per cycle, r_c / r_{c-1}, from the cycle monitor
+// The residual reduction per cycle, r_c / r_{c-1}, from on_cycle
 // (pressure-scaled residual, default settings: V(3,2) cycles, coarsest grid
 // 17^2, under-relaxation 0.4 Gauss-Seidel / 0.3 distributive).  The bounds are
 // the measured values (solver of commit ecdf5d4) with a margin of ~1.4; the
@@ -1037,6 +1037,58 @@ TEST(ImpactHalvedSteps, AStepNoAttemptSolvesIsSolvedInHalvesOnTheSameTimeGrid) {
   report("halved_step_T", run.records[h].T);
   report("halved_step_attempts", run.records[h].attempts);
   report("halved_step_Delta_error_vs_dT_over_4", error_at(h), 3);
+}
+
+namespace {
+
+/// Every cycle report of a run, and its steps.
+class CycleLog final : public ImpactObserver {
+ public:
+  void on_cycle(const CycleRecord& c) override { cycles.push_back(c); }
+  void on_step(const StepRecord& r, const Field&, const Field&, bool) override {
+    steps.push_back(r);
+  }
+  std::vector<CycleRecord> cycles;
+  std::vector<StepRecord> steps;
+};
+
+}  // namespace
+
+TEST(ImpactCycles, EveryAttemptAndCycleOfEveryIntervalIsReported) {
+  // convergence.csv's rows (RunOutput::on_cycle): the case of the halved step
+  // above, where attempts fail and an interval is solved in halves.
+  ImpactConfig cfg = moes_config(65, 1000.0, 20.0);
+  cfg.T_end = 0.95;
+  CycleLog log;
+  ImpactProblem problem(cfg);
+  problem.run(log);
+  ASSERT_FALSE(log.steps.empty());
+  const double dT = log.steps.front().T;
+  for (const StepRecord& r : log.steps) {
+    std::vector<const CycleRecord*> mine;
+    for (const CycleRecord& c : log.cycles)
+      if (c.step == r.step) mine.push_back(&c);
+    ASSERT_FALSE(mine.empty()) << "step " << r.step;
+    // An attempt starts with cycle 0; the cycles of an attempt count up by one.
+    const auto attempts =
+        std::count_if(mine.begin(), mine.end(), [](const CycleRecord* c) { return c->cycle == 0; });
+    EXPECT_EQ(attempts, r.attempts) << "step " << r.step;
+    for (std::size_t k = 1; k < mine.size(); ++k) {
+      if (mine[k]->cycle != 0) {
+        EXPECT_EQ(mine[k]->cycle, mine[k - 1]->cycle + 1);
+      }
+    }
+    const CycleRecord& last = *mine.back();
+    EXPECT_NEAR(last.T, r.T, 1e-12) << "step " << r.step;
+    if (r.attempts > 4) {
+      // Halved: the last interval is the second half of the step.
+      EXPECT_NEAR(last.dt, 0.5 * dT, 1e-12) << "step " << r.step;
+    } else {
+      EXPECT_NEAR(last.dt, dT, 1e-12) << "step " << r.step;
+      EXPECT_EQ(last.residual, r.residual) << "step " << r.step;  // the kept iterate's
+      EXPECT_EQ(last.damping, r.attempts == 1 ? 1.0 : cfg.retry_damping) << "step " << r.step;
+    }
+  }
 }
 
 TEST(ImpactDeformation, FftAndDirectGiveTheSameImpact) {

@@ -1343,9 +1343,12 @@ TEST(RunOutput, WritesAllFilesOnFinish) {
     output.on_start(grid);
     for (int step = 1; step <= 10; ++step) {
       // The solver flags every third step; 0.45 adds step 5 (T = 0.5), 0.0 adds step 1.
+      for (int cycle = 0; cycle <= 2; ++cycle)
+        output.on_cycle({step, 0.1 * step, 0.1, 0, 1.0, cycle, std::pow(0.1, cycle + 3)});
       output.on_step(record(step, 0.1 * step), Field(grid, step), Field(grid, 1.0), step % 3 == 0);
     }
-    EXPECT_EQ(files_in(run), (std::vector<std::string>{"fields.nc.part", "timeseries.csv.part"}));
+    EXPECT_EQ(files_in(run), (std::vector<std::string>{"convergence.csv.part", "fields.nc.part",
+                                                       "timeseries.csv.part"}));
     RunSummary summary;
     summary.steps = 10;
     summary.lifted_off = true;
@@ -1359,7 +1362,8 @@ TEST(RunOutput, WritesAllFilesOnFinish) {
     EXPECT_TRUE(output.committed());
     EXPECT_EQ(output.snapshots_written(), 5u);  // steps 1, 3, 5, 6, 9
   }
-  EXPECT_EQ(files_in(run), (std::vector<std::string>{"fields.nc", "run.json", "timeseries.csv"}));
+  EXPECT_EQ(files_in(run), (std::vector<std::string>{"convergence.csv", "fields.nc", "run.json",
+                                                     "timeseries.csv"}));
   const nlohmann::json j = nlohmann::json::parse(read_file(run / "run.json"));
   EXPECT_EQ(j["program"]["version"], EHLSIM_VERSION);
   EXPECT_EQ(j["parameters"], effective_parameters_json(config));
@@ -1387,6 +1391,12 @@ TEST(RunOutput, WritesAllFilesOnFinish) {
 
   const std::string csv = read_file(run / "timeseries.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 11);
+  // One row per cycle report, with the header of RunOutput::kConvergenceHeader.
+  const std::string cycles = read_file(run / "convergence.csv");
+  EXPECT_EQ(std::count(cycles.begin(), cycles.end(), '\n'), 31);
+  EXPECT_EQ(cycles.substr(0, cycles.find('\n')), RunOutput::kConvergenceHeader);
+  EXPECT_NE(cycles.find("\n10,1,0.1,0,1,2,1e-05\n"), std::string::npos);
+  EXPECT_EQ(j["files"]["convergence_rows"], 30);
 }
 
 TEST(RunOutput, SnapshotStartDelaysThePeriodicSnapshotsOnly) {

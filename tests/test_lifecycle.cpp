@@ -170,8 +170,8 @@ TEST(Lifecycle, ARerunReplacesTheWholeDirectory) {
   const Result r = run_into(run, "--set time.T_end=0.2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // Only the new run's files: no checkpoint.nc or spike_*.csv of the earlier one.
-  EXPECT_EQ(names_in(run),
-            (std::set<std::string>{"fields.nc", "run.json", "spike.csv", "timeseries.csv"}));
+  EXPECT_EQ(names_in(run), (std::set<std::string>{"convergence.csv", "fields.nc", "run.json",
+                                                  "spike.csv", "timeseries.csv"}));
   const auto json = nlohmann::json::parse(read_file(run / "run.json"));
   EXPECT_EQ(json["invocation"]["overrides"].back(), "time.T_end=0.2");
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});  // no lock, staging, checkpoint

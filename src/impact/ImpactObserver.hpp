@@ -30,6 +30,18 @@ struct StepRecord {
   double work = 0.0;
 };
 
+/// One multigrid cycle of a time step (a row of convergence.csv).  Cycle 0 is
+/// the start of an attempt: its residual is that of the initial approximation.
+struct CycleRecord {
+  int step = 0;
+  double T = 0.0;        ///< the time the attempt solves for (the end of its interval)
+  double dt = 0.0;       ///< the interval: dT, or a half or a quarter of it (halved steps)
+  int attempt = 0;       ///< 0, then the retries with more damping
+  double damping = 1.0;  ///< the factor on both under-relaxation parameters
+  int cycle = 0;
+  double residual = 0.0;  ///< the scaled residual after the cycle (solver.tolerance's measure)
+};
+
 /// How a run ended with exit 0 (docs/usage.md, "How a run ends"); a run that
 /// cannot end honestly throws instead (impact/RunGuards.hpp).
 enum class RunOutcome {
@@ -82,6 +94,9 @@ class ImpactObserver {
   /// fields are to be stored.
   virtual void on_step(const StepRecord& /*record*/, const Field& /*P*/, const Field& /*H*/,
                        bool /*snapshot*/) {}
+  /// Called after every multigrid cycle of a time step, and at the start of
+  /// each attempt (cycle 0), before the step's on_step.
+  virtual void on_cycle(const CycleRecord& /*record*/) {}
   virtual void on_finish(const RunSummary& /*summary*/) {}
   /// Asked after every completed step: true ends the run there (after the
   /// state sink has had the step's state) with RunInterrupted.

@@ -177,7 +177,7 @@ struct ImpactProblem::Impl {
   /// approximation, as long as judge_attempt lets them go on; false when the
   /// attempt ended above the tolerance.  Offers every iterate to `best`.
   /// Throws on divergence.
-  bool iterate_time_step(int step, const BallState& ball, BestIterate& best);
+  bool iterate_time_step(const CycleRecord& attempt, const BallState& ball, BestIterate& best);
   StepRecord make_record(int step, const BallState& ball, double force) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
@@ -211,7 +211,8 @@ struct ImpactProblem::Impl {
   };
   StepTally tally;
   BdfCoefficients bdf = kBdf1;
-  ImpactProblem::CycleMonitor monitor;
+  /// The observer of the running run(), told of every cycle (nullptr between runs).
+  ImpactObserver* cycle_observer = nullptr;
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
@@ -319,7 +320,9 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
     solver->set_correction_safeguard(attempt > 0 ? cfg.correction_safeguard : 0.0);
     bool converged = false;
     try {
-      converged = iterate_time_step(step, ball, best);
+      const CycleRecord start_of_attempt{step, ball.T + newmark.dT(), newmark.dT(), attempt,
+                                         damping};
+      converged = iterate_time_step(start_of_attempt, ball, best);
     } catch (const std::runtime_error&) {
       // A diverged attempt is never kept (only its iterates before it
       // diverged are candidates); when no attempt had a finite iterate, the
@@ -367,10 +370,14 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   return fine.force(solver->solution());
 }
 
-bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, BestIterate& best) {
+bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const BallState& ball,
+                                            BestIterate& best) {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
+  const int step = attempt.step;
   const double initial_residual = start_residual;  // every attempt starts from the same state
-  if (monitor) monitor(step, 0, initial_residual);
+  CycleRecord report = attempt;
+  report.residual = initial_residual;
+  if (cycle_observer) cycle_observer->on_cycle(report);
   std::vector<double> history;
   for (int c = 1;; ++c) {
     solver->cycle();
@@ -378,7 +385,9 @@ bool ImpactProblem::Impl::iterate_time_step(int step, const BallState& ball, Bes
     last_residual = solver->residual_norm();
     last_cycles = c;
     history.push_back(last_residual);
-    if (monitor) monitor(step, c, last_residual);
+    report.cycle = c;
+    report.residual = last_residual;
+    if (cycle_observer) cycle_observer->on_cycle(report);
     if (!std::isfinite(last_residual) || last_residual > kDivergenceFactor * initial_residual)
       throw std::runtime_error(fmt::format(
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
@@ -635,6 +644,14 @@ void ImpactProblem::Impl::add_to_summary(const StepRecord& record) {
 
 RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
+  // The cycles of the steps are reported to this run's observer, and to no
+  // one once run() has returned or thrown.
+  struct ForgetObserver {
+    ImpactObserver*& slot;
+    ~ForgetObserver() { slot = nullptr; }
+  };
+  cycle_observer = &observer;
+  const ForgetObserver forget{cycle_observer};
   observer.on_start(grid.full());
   RunProgress run;
   if (restart) {
@@ -682,7 +699,6 @@ ImpactProblem::ImpactProblem(const ImpactConfig& config) : impl_(std::make_uniqu
 ImpactProblem::~ImpactProblem() = default;
 RunSummary ImpactProblem::run(ImpactObserver& observer) { return impl_->run(observer); }
 const ImpactConfig& ImpactProblem::config() const { return impl_->cfg; }
-void ImpactProblem::set_cycle_monitor(CycleMonitor monitor) { impl_->monitor = std::move(monitor); }
 
 void ImpactProblem::restart_from(ImpactState state) {
   const Grid2D grid = impl_->grid.full();

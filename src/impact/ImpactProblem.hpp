@@ -48,12 +48,6 @@ class ImpactProblem {
   using StateSink = std::function<void(const ImpactState& state)>;
   void set_state_sink(int every, StateSink sink);
 
-  /// Called after every multigrid cycle with (step, cycle, residual): for
-  /// convergence studies and tests; the residual before the first cycle of a
-  /// step is reported as cycle 0.
-  using CycleMonitor = std::function<void(int step, int cycle, double residual)>;
-  void set_cycle_monitor(CycleMonitor monitor);
-
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

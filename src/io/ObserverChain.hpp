@@ -20,6 +20,9 @@ class ObserverChain final : public ImpactObserver {
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override {
     for (ImpactObserver* o : observers_) o->on_step(record, P, H, snapshot);
   }
+  void on_cycle(const CycleRecord& record) override {
+    for (ImpactObserver* o : observers_) o->on_cycle(record);
+  }
   void on_finish(const RunSummary& summary) override {
     for (ImpactObserver* o : observers_) o->on_finish(summary);
   }

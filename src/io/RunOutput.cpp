@@ -1,5 +1,7 @@
 #include "io/RunOutput.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -41,6 +43,7 @@ RunOutput::RunOutput(std::filesystem::path directory, const ImpactConfig& config
   std::sort(snapshot_times_.begin(), snapshot_times_.end());
   std::filesystem::create_directories(directory_);
   timeseries_ = std::make_unique<TimeSeriesWriter>(directory_ / kTimeSeriesFile);
+  convergence_ = std::make_unique<CsvWriter>(directory_ / kConvergenceFile, kConvergenceHeader);
 }
 
 RunOutput::~RunOutput() = default;
@@ -68,6 +71,11 @@ void RunOutput::on_step(const StepRecord& record, const Field& P, const Field& H
     fields_->append(record.T, P, H);
   }
   progress_.update(record);
+}
+
+void RunOutput::on_cycle(const CycleRecord& r) {
+  convergence_->append(fmt::format("{},{:.10g},{:.10g},{},{:.10g},{},{:.10g}", r.step, r.T, r.dt,
+                                   r.attempt, r.damping, r.cycle, r.residual));
 }
 
 void RunOutput::resume_after(double T) {
@@ -119,10 +127,9 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"retried_steps", s.retried_steps}};
   j["wall_seconds"] = wall;
   j["solver_wall_seconds"] = s.wall_seconds;
-  j["files"] = {{"timeseries", kTimeSeriesFile},
-                {"timeseries_rows", steps_written()},
-                {"fields", kFieldsFile},
-                {"snapshots", snapshots_written()}};
+  j["files"] = {{"timeseries", kTimeSeriesFile},   {"timeseries_rows", steps_written()},
+                {"convergence", kConvergenceFile}, {"convergence_rows", convergence_->rows()},
+                {"fields", kFieldsFile},           {"snapshots", snapshots_written()}};
   j["files"].update(extra_files_);
   return j;
 }
@@ -131,6 +138,7 @@ void RunOutput::on_finish(const RunSummary& summary) {
   progress_.finish();
   if (!fields_) on_start(grid_);  // a run without steps still gets a (empty) fields file
   timeseries_->commit();
+  convergence_->commit();
   fields_->commit();
   write_json_atomic(directory_ / kRunFile, run_json(summary));
   committed_ = true;

@@ -2,6 +2,7 @@
 // The output of one impact run, as an ImpactObserver: in the run directory
 //
 //   timeseries.csv  one row per time step
+//   convergence.csv one row per multigrid cycle of every attempt of every step
 //   fields.nc       P and H snapshots: every output.snapshot_every steps (the
 //                   solver's `snapshot` flag) from output.snapshot_start on,
 //                   the first step at or after each time in
@@ -24,6 +25,7 @@
 
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactObserver.hpp"
+#include "io/CsvWriter.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/TimeSeriesWriter.hpp"
@@ -33,6 +35,8 @@ namespace ehlsim {
 class RunOutput final : public ImpactObserver {
  public:
   static constexpr std::string_view kTimeSeriesFile = "timeseries.csv";
+  static constexpr std::string_view kConvergenceFile = "convergence.csv";
+  static constexpr std::string_view kConvergenceHeader = "step,T,dt,attempt,damping,cycle,residual";
   static constexpr std::string_view kFieldsFile = "fields.nc";
   static constexpr std::string_view kRunFile = "run.json";
 
@@ -47,6 +51,7 @@ class RunOutput final : public ImpactObserver {
 
   void on_start(const Grid2D& grid) override;
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
+  void on_cycle(const CycleRecord& record) override;
   void on_finish(const RunSummary& summary) override;
   /// A restart from the state after the step at T: the times of
   /// output.snapshot_times reached by then were stored by the run that wrote
@@ -76,6 +81,7 @@ class RunOutput final : public ImpactObserver {
   std::size_t next_snapshot_time_ = 0;
   std::chrono::steady_clock::time_point start_;
   std::unique_ptr<TimeSeriesWriter> timeseries_;
+  std::unique_ptr<CsvWriter> convergence_;
   std::unique_ptr<FieldWriter> fields_;
   ProgressLine progress_;
   bool committed_ = false;
