@@ -30,8 +30,8 @@ constexpr double kAttemptDamping[] = {1.0, 0.5, 0.25};
 /// tenfold (multigrid::FasSettings::correction_safeguard; the impact's retries
 /// use the same 10).  M = 50, L = 20 on 513^2: the second cycle from the
 /// interpolated 257^2 solution took the residual from 0.4 to 3e5 at full
-/// relaxation and from 0.07 to 2.4 at half; with the safeguard the half
-/// relaxation converges.
+/// relaxation, 0.3 to 1e9 at half and 0.07 to 2.4 at a quarter; with the
+/// safeguard the half relaxation converges.
 constexpr double kRetryCorrectionSafeguard = 10.0;
 /// A retry starts from the best iterate of the stage so far when that is this
 /// factor below the residual of the stage's start, else from the start: M =
