@@ -237,10 +237,10 @@ TEST(Rolling, CentralFilmConvergesAtLowMAndL20) {
 TEST(Rolling, CentralFilmConvergesAtL20AfterADivergedFirstAttempt) {
   // M = 50, L = 20 on 513^2 (257^2 converged): the first cycle from the
   // interpolated 257^2 solution leaves the residual at 0.4 and the second
-  // blows it up to 3e5; before, the damped retries blew up too (0.3 to 1e9 at
-  // half relaxation, 0.07 to 2.4 at a quarter) and the run ended with exit 1.  The retry's
-  // coarse-grid corrections are now guarded (undone when they raise the residual tenfold): 57
-  // cycles.
+  // blows it up to 3e5; before, the damped retries blew up too (0.3 to 1e9
+  // at half relaxation, 0.07 to 2.4 at a quarter) and the run ended with
+  // exit 1.  The retries' coarse-grid corrections are now guarded (undone
+  // when they raise the residual tenfold): 57 cycles.
   const RollingConfig c = rolling_case(50, 20, 513);
   const RollingResult r = solve(c);
   EXPECT_LT(r.residual, c.tolerance);
