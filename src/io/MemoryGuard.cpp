@@ -38,9 +38,9 @@ constexpr double kCompressionBytesPerGridPoint = 2 * sizeof(double);
 constexpr double kDryTableBytes = 3.0 * sizeof(double) * (1 << 19);
 
 /// The rolling contact (docs/performance.md, "Memory"): per point of the full
-/// grid, 3 doubles (the start of a stage, kept for its retries; the result's
-/// P and H) ...
-constexpr double kRollingBytesPerGridPoint = 3 * sizeof(double);
+/// grid, 4 doubles (the start of a stage and its best iterate, kept for its
+/// retries; the result's P and H) ...
+constexpr double kRollingBytesPerGridPoint = 4 * sizeof(double);
 /// ... and per point of every multigrid level, fitted to the peak RSS
 /// (/usr/bin/time -f %M) of `ehlsim rolling` on 129^2 to 1025^2 above the
 /// process, the full-grid arrays and the compression buffers: 171 bytes on

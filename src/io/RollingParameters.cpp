@@ -48,7 +48,9 @@ std::vector<ParameterSpec> build_rolling_registry() {
                    "side edge; y_max - y_min = x_max - x_min (square cells on a square grid)"));
   r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), none, "", "other side edge"));
   // [solver]
-  add_solver_parameters(r, kDefaults, "cycles on the finest grid before the run fails (exit 1)");
+  add_solver_parameters(r, kDefaults,
+                        "cycles on the finest grid, of all its attempts, before the run fails "
+                        "(exit 1)");
   r.push_back(real("solver.h0_relaxation", kDefaults.h0_relaxation, "", above(0), at_most(1), "",
                    "fraction of the Newton change of H0 (force balance) applied after a cycle"));
   r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), none, false,

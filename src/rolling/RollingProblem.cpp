@@ -23,15 +23,33 @@ constexpr double kLoadStiffness = std::numbers::pi;
 constexpr double kDivergenceFactor = 1e3;
 /// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
 constexpr double kDivergedForceError = 1.0;
-/// Under-relaxation factors of the attempts of a stage: a diverged stage
-/// starts again from the interpolated solution with more damping.
+/// Under-relaxation factors of the attempts of a stage: a diverged or stalled
+/// stage starts again (kProgressFactor says from where) with more damping.
 constexpr double kAttemptDamping[] = {1.0, 0.5, 0.25};
+/// A retry undoes a coarse-grid correction that raises the residual more than
+/// tenfold (multigrid::FasSettings::correction_safeguard; the impact's retries
+/// use the same 10).  M = 50, L = 20 on 513^2: the second cycle from the
+/// interpolated 257^2 solution took the residual from 0.4 to 3e5 at full
+/// relaxation, 0.3 to 1e9 at half and 0.07 to 2.4 at a quarter; with the
+/// safeguard the half relaxation converges.
+constexpr double kRetryCorrectionSafeguard = 10.0;
+/// A retry starts from the best iterate of the stage so far when that is this
+/// factor below the residual of the stage's start, else from the start: M =
+/// 20, L = 20 on 513^2 stalled at half relaxation at 1.2e-4, after 75
+/// cycles, and started again from the 257^2 solution could not converge in
+/// what was left of solver.max_cycles.  An attempt that never got far below
+/// its start (full relaxation oscillating about the start's level) leaves a
+/// worse start than the interpolated one (M = 50, L = 20, 257^2 on half the
+/// domain: 53 cycles from its best iterate, 34 from the start).
+constexpr double kProgressFactor = 10.0;
 /// The finest stage has stalled when its residual has not reached a new
 /// lowest value for this many cycles: it starts again with more damping.
 /// M = 1000, L = 20 on 513^2 oscillated about 1e-3 for 40 cycles at full
-/// relaxation and converges in 18 at half; converging runs set a new lowest
-/// residual nearly every cycle.
-constexpr int kStallCycles = 8;
+/// relaxation and converges in 18 at half.  Converging runs set a new lowest
+/// residual nearly every cycle, but near the tolerance the outlet spike can
+/// make it wobble: M = 20, L = 20 on 513^2 at half relaxation set 1.24e-4 at
+/// cycle 75 and 1.04e-4 ten cycles later (8 cycles ended that attempt there).
+constexpr int kStallCycles = 12;
 /// The Newton step of H0 overshoots when the force error changes sign and
 /// keeps more than this fraction of its size: the step is then halved, down
 /// to kMinH0Step of solver.h0_relaxation.  At L = 20 the piezoviscous contact
@@ -84,10 +102,20 @@ struct RollingProblem::Impl {
 
   /// The Hertz pressure on the coarsest grid and H0 from the film formula.
   void start_from_hertz();
+  /// A solution of a stage and its residual.
+  struct Iterate {
+    Field P;
+    double h0 = 0.0;
+    double residual = std::numeric_limits<double>::infinity();
+  };
   /// Cycles on `level` (the finest of the sub-hierarchy) with H0 updated
-  /// after each; true when the finest grid reached the tolerance.  Throws
-  /// StageDiverged when it diverges, or (detect_stall) stalls on the finest grid.
-  bool converge_on(int level, int cycles, const CycleMonitor& monitor, bool detect_stall);
+  /// after each, at most `cycles`; true when the finest grid reached the
+  /// tolerance.  Throws StageDiverged when it diverges, or (detect_stall)
+  /// stalls on the finest grid.  Keeps the lowest-residual iterate in `best`.
+  bool converge_on(int level, int cycles, bool detect_stall, Iterate& best,
+                   const CycleMonitor& monitor);
+  /// One cycle on `level` and its record, numbered after the level's earlier cycles.
+  RollingCycle cycle_on(int level);
   /// converge_on with retries at more damping when the stage diverges.
   bool solve_stage(int level, int cycles, const CycleMonitor& monitor);
   void update_h0(int level);
@@ -101,6 +129,7 @@ struct RollingProblem::Impl {
   double h0 = 0.0;
   double h0_step = 1.0;  ///< fraction of solver.h0_relaxation, halved on overshoot
   std::vector<RollingCycle> history;
+  int level_cycles = 0;  ///< cycles on the current level, over all its attempts
 };
 
 RollingProblem::Impl::Impl(const RollingConfig& config)
@@ -144,41 +173,47 @@ void RollingProblem::Impl::update_h0(int level) {
   set_h0(h0 + h0_step * cfg.h0_relaxation * error / kLoadStiffness);
 }
 
-bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor& monitor,
-                                       bool detect_stall) {
+RollingCycle RollingProblem::Impl::cycle_on(int level) {
   reynolds::ReynoldsOperator& op = hierarchy.level(level).op();
-  double lowest = std::numeric_limits<double>::infinity();
+  solver->cycle(level);
+  update_h0(level);
+  RollingCycle record;
+  record.points = op.grid().n;
+  record.cycle = ++level_cycles;
+  record.residual = solver->residual_norm(level);
+  record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
+  record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
+  record.H0 = h0;
+  record.work = hierarchy.work_units();
+  history.push_back(record);
+  return record;
+}
+
+bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall, Iterate& best,
+                                       const CycleMonitor& monitor) {
+  double first = 0.0, lowest = std::numeric_limits<double>::infinity();
   int lowest_cycle = 0;
   for (int c = 1; c <= cycles; ++c) {
-    solver->cycle(level);
-    update_h0(level);
-    RollingCycle record;
-    record.points = op.grid().n;
-    record.cycle = c;
-    record.residual = solver->residual_norm(level);
-    record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
-    record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
-    record.H0 = h0;
-    record.work = hierarchy.work_units();
-    history.push_back(record);
+    const RollingCycle record = cycle_on(level);
     if (monitor) monitor(record);
-    const double first = history[history.size() - static_cast<std::size_t>(c)].residual;
+    if (c == 1) first = record.residual;
     if (!std::isfinite(record.residual) || !std::isfinite(h0) ||
         record.residual > kDivergenceFactor * first ||
         std::abs(record.force_error) >= kDivergedForceError)
       throw StageDiverged(
           fmt::format("the multigrid iteration diverged on the {}^2 grid at "
                       "cycle {} (residual {:.3e}, force error {:.3g})",
-                      record.points, c, record.residual, record.force_error));
+                      record.points, record.cycle, record.residual, record.force_error));
     if (record.residual < lowest) {
       lowest = record.residual;
       lowest_cycle = c;
     }
-    if (detect_stall && level == 0 && c - lowest_cycle >= kStallCycles)
+    if (record.residual < best.residual) best = {solver->solution(level), h0, record.residual};
+    if (detect_stall && c - lowest_cycle >= kStallCycles)
       throw StageDiverged(fmt::format(
           "the multigrid iteration stalled on the {}^2 grid: residual {:.3e} at cycle {}, "
-          "no lower than {:.3e} at cycle {}",
-          record.points, record.residual, c, lowest, lowest_cycle));
+          "no lower than {:.3e} {} cycles before",
+          record.points, record.residual, record.cycle, lowest, c - lowest_cycle));
     if (level == 0 && record.residual < cfg.tolerance &&
         std::abs(record.force_error) < cfg.tolerance)
       return true;
@@ -187,18 +222,25 @@ bool RollingProblem::Impl::converge_on(int level, int cycles, const CycleMonitor
 }
 
 bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor& monitor) {
-  const Field start = solver->solution(level);
-  const double start_h0 = h0;
+  const Iterate start{solver->solution(level), h0, solver->residual_norm(level)};
+  Iterate best = start;
+  level_cycles = 0;
   for (std::size_t attempt = 0;; ++attempt) {
+    const bool last = attempt + 1 == std::size(kAttemptDamping);
     hierarchy.set_damping(kAttemptDamping[attempt]);
+    solver->set_correction_safeguard(attempt > 0 ? kRetryCorrectionSafeguard : 0.0);
+    // On the finest grid solver.max_cycles bounds the cycles of all attempts;
+    // the last attempt has what is left and may stall.
+    const int budget = level == 0 ? cycles - level_cycles : cycles;
+    if (budget <= 0) return false;
     try {
-      // The last attempt may stall: it has the whole solver.max_cycles.
-      return converge_on(level, cycles, monitor, attempt + 1 < std::size(kAttemptDamping));
+      return converge_on(level, budget, level == 0 && !last, best, monitor);
     } catch (const StageDiverged&) {
-      if (attempt + 1 == std::size(kAttemptDamping)) throw;
+      if (last) throw;
     }
-    solver->solution(level) = start;
-    set_h0(start_h0);
+    const Iterate& restart = best.residual * kProgressFactor < start.residual ? best : start;
+    solver->solution(level) = restart.P;
+    set_h0(restart.h0);
   }
 }
 
@@ -221,7 +263,7 @@ RollingResult RollingProblem::Impl::result() const {
   r.history = history;
   r.residual = history.back().residual;
   r.force_error = history.back().force_error;
-  r.cycles = history.back().cycle;
+  r.cycles = history.back().cycle;  // on the finest grid, over all its attempts
   r.work = hierarchy.work_units();
   return r;
 }
