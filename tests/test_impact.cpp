@@ -920,6 +920,30 @@ TEST(ImpactGridConvergence, SecondOrderInSpaceAndTime) {
 // the same deformation up to round-off (~1e-15 relative); through the whole
 // nonlinear solver the time series must agree to ~1e-9 (the iterations take the
 // same path; round-off is all that differs).  33^2 through dry contact (T = 1.5).
+namespace {
+
+/// A run that also keeps its state after every `every`-th step (the checkpoints).
+RunResult run_keeping_states(const ImpactConfig& cfg, int every, std::vector<ImpactState>& states) {
+  RunResult out;
+  ImpactProblem problem(cfg);
+  problem.set_state_sink(every, [&](const ImpactState& s) { states.push_back(s); });
+  Recorder recorder(out);
+  out.summary = problem.run(recorder);
+  return out;
+}
+
+/// The run of `cfg` restarted from `state`.
+RunResult run_restarted(const ImpactConfig& cfg, const ImpactState& state) {
+  RunResult out;
+  ImpactProblem problem(cfg);
+  problem.restart_from(state);
+  Recorder recorder(out);
+  out.summary = problem.run(recorder);
+  return out;
+}
+
+}  // namespace
+
 TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
   // A restart from the state after step k must give the steps after k of the
   // uninterrupted run: the BDF2 history, the extrapolated start, the force
@@ -929,24 +953,12 @@ TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
   cfg.T_end = 3.0;
   constexpr int kEvery = 25;
   std::vector<ImpactState> states;
-  RunResult full;
-  {
-    ImpactProblem problem(cfg);
-    problem.set_state_sink(kEvery, [&](const ImpactState& s) { states.push_back(s); });
-    Recorder recorder(full);
-    full.summary = problem.run(recorder);
-  }
+  const RunResult full = run_keeping_states(cfg, kEvery, states);
   ASSERT_GE(states.size(), 2u);
   const ImpactState& state = states[1];  // after step 50, T = 2.34: in contact
   ASSERT_EQ(state.step, 2 * kEvery);
   ASSERT_GT(state.ball.T, 1.0);
-  RunResult resumed;
-  {
-    ImpactProblem problem(cfg);
-    problem.restart_from(state);
-    Recorder recorder(resumed);
-    resumed.summary = problem.run(recorder);
-  }
+  const RunResult resumed = run_restarted(cfg, state);
   ASSERT_EQ(resumed.records.size() + state.step, full.records.size());
   ASSERT_EQ(resumed.records.front().step, state.step + 1);
   for (std::size_t k = 0; k < resumed.records.size(); ++k) {
@@ -979,13 +991,7 @@ TEST(ImpactHalvedSteps, AStepNoAttemptSolvesIsSolvedInHalvesOnTheSameTimeGrid) {
   constexpr int kAttemptsOfAWholeStep = 4;  // the first attempt and kMaxRetries = 3 retries
   constexpr int kStateStep = 15;
   std::vector<ImpactState> states;
-  RunResult run;
-  {
-    ImpactProblem problem(cfg);
-    problem.set_state_sink(kStateStep, [&](const ImpactState& s) { states.push_back(s); });
-    Recorder recorder(run);
-    run.summary = problem.run(recorder);
-  }
+  const RunResult run = run_keeping_states(cfg, kStateStep, states);
   ASSERT_RAN(run);
   const double dT = run.grid.h();
   std::vector<std::size_t> halved;
@@ -1019,13 +1025,7 @@ TEST(ImpactHalvedSteps, AStepNoAttemptSolvesIsSolvedInHalvesOnTheSameTimeGrid) {
 
   // A restart before the halved step repeats it to the bit.
   ASSERT_FALSE(states.empty());
-  RunResult resumed;
-  {
-    ImpactProblem problem(cfg);
-    problem.restart_from(states.front());
-    Recorder recorder(resumed);
-    resumed.summary = problem.run(recorder);
-  }
+  const RunResult resumed = run_restarted(cfg, states.front());
   ASSERT_EQ(resumed.records.size() + kStateStep, run.records.size());
   for (std::size_t k = 0; k < resumed.records.size(); ++k) {
     const StepRecord &a = run.records[kStateStep + k], &b = resumed.records[k];
