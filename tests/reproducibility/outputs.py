@@ -1,6 +1,6 @@
 """Reading and comparing the outputs of ehlsim runs, bit for bit.
 
-A run directory holds timeseries.csv, spike.csv, fields.nc and run.json
+A run directory holds timeseries.csv, spike.csv, convergence.csv, fields.nc and run.json
 (docs/usage.md, "Outputs").  The comparisons here are exact:
 
 - the CSV files as text (rows of the same steps must be the same strings);
@@ -20,6 +20,8 @@ import subprocess
 from pathlib import Path
 
 CSV_FILES = ("timeseries.csv", "spike.csv")
+# One row per multigrid cycle, the step number first: several rows per step.
+CONVERGENCE_FILE = "convergence.csv"
 FIELDS_FILE = "fields.nc"
 RUN_FILE = "run.json"
 CHECKPOINT_FILE = "checkpoint.nc"
@@ -117,7 +119,7 @@ def compare_runs(a, b):
     """Two runs of the same input: every output the same (apart from wall-clock time)."""
     a, b = Path(a), Path(b)
     out = []
-    for name in CSV_FILES:
+    for name in CSV_FILES + (CONVERGENCE_FILE,):
         (header_a, rows_a), (header_b, rows_b) = read_rows(a / name), read_rows(b / name)
         out += compare_rows(rows_a, rows_b, name)
         if header_a != header_b:
@@ -144,6 +146,10 @@ def compare_restart(full, restarted, step):
     for name in CSV_FILES:
         rows = read_rows(full / name)[1]
         out += compare_rows(rows[step:], read_rows(restarted / name)[1], name, step)
+    cycles = read_rows(full / CONVERGENCE_FILE)[1]
+    after = [row for row in cycles if int(row.split(",")[0]) > step]
+    out += compare_rows(after, read_rows(restarted / CONVERGENCE_FILE)[1], CONVERGENCE_FILE,
+                        len(cycles) - len(after))
     snapshots = read_snapshots(full / FIELDS_FILE)
     # The time of `step` (10 digits in the CSV: enough to tell steps apart).
     T_step = float(read_rows(full / CSV_FILES[0])[1][step - 1].split(",")[0])
