@@ -1651,6 +1651,47 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   EXPECT_EQ(names_in(dir / "user"), std::set<std::string>{"data.csv"});  // untouched
 }
 
+TEST(RunDirectory, ARunIntoASymbolicLinkReplacesTheDirectoryItPointsTo) {
+  TempDir dir;
+  const fs::path real = dir / "real";
+  write_earlier_run(real);
+  fs::create_directory_symlink("real", dir / "link");
+  {
+    RunDirectory run(dir / "link");
+    EXPECT_EQ(run.target(), dir / "link");                    // messages name DIR as given
+    EXPECT_EQ(run.checkpoint(), dir / "real.checkpoint.nc");  // beside the data, not the link
+    write_file(run.staging() / "run.json", "new\n");
+    run.publish(false);
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "link"));
+  EXPECT_EQ(names_in(real), std::set<std::string>{"run.json"});
+  EXPECT_EQ(read_file(real / "run.json"), "new\n");
+  EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"link", "real"}));
+
+  // A dangling link (a chain, here) gets its target created, as a shell's `>` would.
+  fs::create_directory_symlink("sub/later", dir / "next");
+  fs::create_directory_symlink("next", dir / "chain");
+  {
+    RunDirectory run(dir / "chain");
+    write_file(run.staging() / "run.json", "later\n");
+    run.publish(false);
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "chain"));
+  EXPECT_TRUE(fs::is_symlink(dir / "next"));
+  EXPECT_EQ(read_file(dir / "sub" / "later" / "run.json"), "later\n");
+
+  // A loop is bad input, named.
+  fs::create_directory_symlink("loop-b", dir / "loop-a");
+  fs::create_directory_symlink("loop-a", dir / "loop-b");
+  try {
+    RunDirectory run(dir / "loop-a");
+    FAIL() << "a symbolic link loop was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "--out '" + (dir / "loop-a").string() +
+                                         "': too many levels of symbolic links (a loop?)");
+  }
+}
+
 /// The inode of `path` (a hard link shares it).
 ino_t inode_of(const fs::path& path) {
   struct stat status {};

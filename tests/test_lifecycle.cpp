@@ -208,6 +208,29 @@ TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
   EXPECT_EQ(r.exit_code, 2);
 }
 
+TEST(Lifecycle, ARunIntoASymbolicLinkLandsWhereItPoints) {
+  TempDir work;
+  const fs::path real = work / "real";
+  fs::create_directories(real);
+  fs::create_directory_symlink("real", work / "link");
+  const std::set<std::string> run_files = {"fields.nc", "run.json", "spike.csv", "timeseries.csv"};
+  for (const char* T_end : {"0.2", "0.3"}) {  // into the empty directory, then over that run
+    const Result r = run_into(work / "link", std::string("--set time.T_end=") + T_end);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(fs::is_symlink(work / "link")) << T_end;
+    EXPECT_EQ(names_in(real), run_files) << T_end;
+  }
+  const auto json = nlohmann::json::parse(read_file(real / "run.json"));
+  EXPECT_EQ(json["invocation"]["overrides"].back(), "time.T_end=0.3");
+  // A dangling link gets its target, as a shell's `>` would.
+  fs::create_directory_symlink("later", work / "pending");
+  const Result r = run_into(work / "pending", "--set time.T_end=0.2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::is_symlink(work / "pending"));
+  EXPECT_EQ(names_in(work / "later"), run_files);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"later", "link", "pending", "real"}));
+}
+
 /// The bytes of every file of a run directory.
 std::vector<std::string> contents(const fs::path& dir) {
   std::vector<std::string> files;

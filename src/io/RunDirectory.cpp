@@ -37,6 +37,8 @@ constexpr std::string_view kOldInfix = ".old-";
 constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
 constexpr std::size_t kHostNameLength = 256;
 constexpr std::size_t kLockTextLength = 512;
+/// Links followed from --out before a chain counts as a loop (Linux's own limit, ELOOP).
+constexpr int kMaxLinkHops = 40;
 
 /// Every file name ehlsim writes into a run directory (impact, spike, rolling).
 const std::set<std::string, std::less<>>& ehlsim_file_names() {
@@ -59,6 +61,26 @@ std::string system_message(int error) { return std::generic_category().message(e
 fs::path without_trailing_separator(fs::path path) {
   if (!path.empty() && path.filename().empty()) path = path.parent_path();
   return path;
+}
+
+/// `target` itself, or the path a symbolic link `target` points to (a chain
+/// followed to its end, which may be missing): the directory a run into
+/// `target` writes, so that the swap replaces that directory, not the link.
+/// Relative links are taken from the link's directory.  ConfigError for a loop.
+fs::path follow_final_link(const fs::path& target) {
+  fs::path path = without_trailing_separator(target);
+  for (int hops = 0;; ++hops) {
+    std::error_code ec;
+    if (!fs::is_symlink(fs::symlink_status(path, ec))) return path;
+    if (hops == kMaxLinkHops) {
+      throw ConfigError(
+          fmt::format("--out '{}': too many levels of symbolic links (a loop?)", target.string()),
+          "--out");
+    }
+    const fs::path link = fs::read_symlink(path);
+    path = without_trailing_separator(
+        (link.is_absolute() ? link : path.parent_path() / link).lexically_normal());
+  }
 }
 
 /// A sibling of `target`: "<parent>/<prefix><name><suffix>".
@@ -172,14 +194,6 @@ void carry_over(const fs::path& from, const fs::path& to,
   for (const fs::path& directory : directories) sync_path(directory);
 }
 
-/// The directory an amendment of `target` changes: the one a symbolic link
-/// `target` points to (the swap would otherwise replace the link).
-fs::path resolve_amended_directory(const fs::path& target) {
-  const fs::path name = without_trailing_separator(target);
-  std::error_code ec;
-  return resolve_run_directory(fs::is_symlink(name, ec) ? fs::canonical(name) : name);
-}
-
 /// Puts `staging` in the place of the existing directory `target`; afterwards
 /// the earlier run is at the returned path.
 fs::path swap_into_place(const fs::path& staging, const fs::path& target) {
@@ -275,7 +289,8 @@ fs::path resolve_run_directory(const fs::path& target) {
 
 RunDirectory::RunDirectory(const fs::path& target)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_run_directory(target)),
+      directory_(follow_final_link(target_)),
+      resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);
@@ -285,7 +300,8 @@ RunDirectory::RunDirectory(const fs::path& target)
 
 RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_amended_directory(target)),
+      directory_(follow_final_link(target_)),
+      resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))),
       amend_(true),
@@ -305,7 +321,7 @@ RunDirectory::~RunDirectory() {
   fs::remove_all(staging_, ec);
 }
 
-fs::path RunDirectory::checkpoint() const { return sibling(target_, "", kCheckpointSuffix); }
+fs::path RunDirectory::checkpoint() const { return sibling(directory_, "", kCheckpointSuffix); }
 
 void RunDirectory::publish(bool with_checkpoint) {
   if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);

@@ -22,6 +22,9 @@
 // before the swap the staging directory gets hard links of everything else in
 // DIR, so the same swap publishes the new files together and nothing else
 // changes.
+//
+// A DIR that is a symbolic link stays one: DIR above is then the directory it
+// points to (created when missing), which the run replaces or amends.
 #include <sys/types.h>
 
 #include <filesystem>
@@ -84,7 +87,8 @@ class RunDirectory {
   [[nodiscard]] const std::filesystem::path& target() const { return target_; }
   /// Where the files of the new run are written.
   [[nodiscard]] const std::filesystem::path& staging() const { return staging_; }
-  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints.
+  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints
+  /// (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
 
   /// Makes the staged run DIR (with `checkpoint()` as DIR/checkpoint.nc when
@@ -98,8 +102,9 @@ class RunDirectory {
   [[nodiscard]] bool published() const { return published_; }
 
  private:
-  std::filesystem::path target_;    ///< as given
-  std::filesystem::path resolved_;  ///< absolute, symlinks of the parents resolved
+  std::filesystem::path target_;     ///< as given
+  std::filesystem::path directory_;  ///< as given, a symbolic link followed
+  std::filesystem::path resolved_;   ///< absolute, symlinks of the parents resolved
   PathLock lock_;
   std::filesystem::path staging_;
   bool amend_ = false;
