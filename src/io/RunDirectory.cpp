@@ -239,6 +239,19 @@ void check_replaceable_run_directory(const fs::path& dir) {
   }
 }
 
+void replace_directory(const fs::path& staging, const fs::path& target) {
+  sync_path(staging);
+  fs::path old;
+  if (fs::exists(fs::symlink_status(target))) {
+    old = swap_into_place(staging, target);
+  } else {
+    fs::rename(staging, target);
+  }
+  sync_path(target.parent_path());
+  std::error_code ec;  // leftovers are the next writer's debris, not a failure
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
 PathLock::PathLock(const fs::path& target, const fs::path& shown)
     : path_(sibling(target, ".", kLockSuffix)) {
   for (;;) {

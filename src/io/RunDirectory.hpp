@@ -116,6 +116,13 @@ class RunDirectory {
   void check_target_unchanged() const;
 };
 
+/// Puts the complete directory `staging` in the place of `target` (missing
+/// or a directory) in one atomic step, as publish() does, and removes what
+/// `target` held: a reader sees the earlier contents or the new ones.
+/// Both must be on one file system; the caller holds a lock on `target`.
+/// Throws std::runtime_error when a file cannot be synced or renamed.
+void replace_directory(const std::filesystem::path& staging, const std::filesystem::path& target);
+
 /// `target` absolute, without a trailing separator, with the symbolic links of
 /// its parent resolved (one spelling per directory, for the lock); creates
 /// the parent.  Throws ConfigError for "" or a path without a name.
