@@ -380,13 +380,14 @@ TEST(RegistryErrors, UnreadableAndMalformedFiles) {
   EXPECT_EQ(message.find('\n'), std::string::npos);
   write_file(f, "[case]\nM = 1\nM = 2\n");
   EXPECT_EQ(config_error(f, {}).rfind(f + ":3:", 0), 0u) << config_error(f, {});
-  // An endless or huge input is refused after its first MiB, not read into memory.
-  const std::string too_large = ": larger than 1048576 bytes, not a case file";
+  // An endless or huge input is refused after its first 16 MiB, not read into memory.
+  constexpr std::size_t kLimit = std::size_t{16} << 20;
+  const std::string too_large = ": larger than 16777216 bytes, not a case file";
   EXPECT_EQ(config_error(fs::path("/dev/zero"), {}),
             "cannot read config file '/dev/zero'" + too_large);
-  write_file(f, "# " + std::string(1 << 20, 'x') + "\n[case]\nM = 20\n");
+  write_file(f, "# " + std::string(kLimit, 'x') + "\n[case]\nM = 20\n");
   EXPECT_EQ(config_error(f, {}), "cannot read config file '" + f + "'" + too_large);
-  write_file(f, "# " + std::string((1 << 20) - 20, 'x') + "\n[case]\nM = 20\n");
+  write_file(f, "# " + std::string(kLimit - 20, 'x') + "\n[case]\nM = 20\n");
   EXPECT_EQ(load_config(fs::path(f), {}).M, 20.0);  // just below the limit: read
 }
 

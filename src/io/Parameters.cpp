@@ -55,8 +55,9 @@ constexpr std::string_view kDirect = "direct";
 /// Source name given to the values of --set overrides.
 constexpr std::string_view kOverrideOrigin = "--set";
 /// The largest config file read: a case is a few hundred bytes, a long
-/// output.snapshot_times list some kB.
-constexpr std::size_t kMaxConfigBytes = std::size_t{1} << 20;
+/// output.snapshot_times list some kB; a runaway value of 10 MB is still read
+/// (to be refused with its key named, shortened).
+constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
 }  // namespace
 
 std::string_view viscosity_model_text(ViscosityModel model) {
