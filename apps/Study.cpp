@@ -537,6 +537,10 @@ int run_study(const StudyOptions& options) {
   }
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
+  if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {
+    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", out.string()),
+                      "--out");
+  }
   fs::create_directories(out / "logs");
   fmt::print(
       "ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",

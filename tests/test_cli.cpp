@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -119,10 +120,25 @@ TEST(Cli, EmptyPathsAreBadInput) {
   expect_bad_input(ehlsim("study --out ''"), "--out: must name a directory, not be empty");
 }
 
+TEST(Cli, AnOutThatIsOrLiesInAFileIsBadInput) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "afile", "x");
+  const std::string in_file = (file / "sub").string();
+  const std::string is_file = "--out '" + file.string() + "' exists and is not a directory";
+  const std::string below = "--out '" + in_file + "': '" + file.string() + "' is not a directory";
+  expect_bad_input(ehlsim("impact --set grid.points=33 --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(file.string())), is_file);
+  expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(file.string())), is_file);
+  EXPECT_EQ(read_file(file), "x");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
 TEST(Cli, UnknownCommandIsNamed) {
   expect_bad_input(ehlsim("frobnicate --out x"),
-                   "unknown command 'frobnicate' (commands: impact, spike, study; try ehlsim "
-                   "--help)");
+                   "unknown command 'frobnicate' (commands: impact, spike, study, rolling; try "
+                   "ehlsim --help)");
 }
 
 TEST(Cli, RunawayValuesAreShortenedInErrors) {

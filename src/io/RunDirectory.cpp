@@ -194,6 +194,25 @@ void carry_over(const fs::path& from, const fs::path& to,
   for (const fs::path& directory : directories) sync_path(directory);
 }
 
+/// Creates the missing parents of `absolute` (--out `shown`): ConfigError when
+/// one of them is a file, std::runtime_error naming the reason otherwise.
+void create_parent_directories(const fs::path& absolute, const fs::path& shown) {
+  std::error_code ec;
+  fs::create_directories(absolute.parent_path(), ec);
+  if (!ec) return;
+  if (ec == std::errc::not_a_directory || ec == std::errc::file_exists) {
+    fs::path file = absolute.parent_path();  // the first parent that exists
+    std::error_code exists;
+    while (file.has_relative_path() && !fs::exists(fs::status(file, exists)))
+      file = file.parent_path();
+    throw ConfigError(
+        fmt::format("--out '{}': '{}' is not a directory", shown.string(), file.string()), "--out");
+  }
+  throw std::runtime_error(fmt::format("cannot create '{}', the parent directory of --out '{}': {}",
+                                       absolute.parent_path().string(), shown.string(),
+                                       ec.message()));
+}
+
 /// Puts `staging` in the place of the existing directory `target`; afterwards
 /// the earlier run is at the returned path.
 fs::path swap_into_place(const fs::path& staging, const fs::path& target) {
@@ -296,7 +315,7 @@ fs::path resolve_run_directory(const fs::path& target) {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
-  fs::create_directories(absolute.parent_path());
+  create_parent_directories(absolute, target);
   return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
 }
 
