@@ -430,10 +430,18 @@ void check_study_options(const StudyOptions& options) {
                         key);
     }
   }
-  if (!options.no_plots && ::access(options.python.c_str(), X_OK) != 0) {
+  if (options.no_plots) return;
+  std::error_code ec;
+  const char* unusable = nullptr;
+  if (::access(options.python.c_str(), X_OK) != 0) {
+    unusable = std::strerror(errno);
+  } else if (!fs::is_regular_file(options.python, ec)) {
+    unusable = "not a regular file";  // a directory passes access(X_OK)
+  }
+  if (unusable != nullptr) {
     throw ConfigError(
         fmt::format("--python '{}': {} (give a Python 3 with numpy and matplotlib, or --no-plots)",
-                    echo_input(options.python), std::strerror(errno)));
+                    echo_input(options.python), unusable));
   }
 }
 
@@ -532,8 +540,9 @@ int run_study(const StudyOptions& options) {
   }
   const fs::path script =
       options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
-  if (!options.no_plots && !fs::exists(script)) {
-    throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
+  if (std::error_code ec; !options.no_plots && !fs::is_regular_file(script, ec)) {
+    throw ConfigError(fmt::format("--plot-script '{}': {}", script.string(),
+                                  fs::exists(script, ec) ? "not a regular file" : "no such file"));
   }
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);

@@ -392,6 +392,12 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
       ehlsim("study --grid 33 --python /nonexistent/python3 --out " + quote(out.string())),
       "--python '/nonexistent/python3': No such file or directory (give a Python 3 "
       "with numpy and matplotlib, or --no-plots)");
+  // A directory is no interpreter or script (a directory passes access(X_OK)).
+  expect_bad_input(ehlsim("study --grid 33 --python /etc --out " + quote(out.string())),
+                   "--python '/etc': not a regular file (give a Python 3 with numpy and "
+                   "matplotlib, or --no-plots)");
+  expect_bad_input(ehlsim("study --grid 33 --plot-script /etc --out " + quote(out.string())),
+                   "--plot-script '/etc': not a regular file");
   expect_bad_input(
       ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
       "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");

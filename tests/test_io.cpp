@@ -889,6 +889,19 @@ TEST(Checkpoint, ReadingSomethingElseNamesTheFile) {
       EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
     }
   }
+  // A FIFO without a writer would block the open for ever; a directory or a
+  // device is no checkpoint either: refused before it is opened.
+  const fs::path fifo = dir / "fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const fs::path& path : {fifo, dir.path(), fs::path("/dev/zero")}) {
+    try {
+      (void)read_checkpoint(path);
+      FAIL() << "expected an error for " << path;
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), "cannot read checkpoint '" + path.string() +
+                                           "': not a regular file (a directory, FIFO or device)");
+    }
+  }
 }
 
 TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
