@@ -158,12 +158,16 @@ TEST(Cli, RunawayValuesAreShortenedInErrors) {
 }
 
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
+  // (An --out below a file, once the example here, is bad input:
+  // AnOutThatIsOrLiesInAFileIsBadInput.)
   TempDir dir;
-  const std::string blocker = write_file(dir / "file", "not a directory").string();
-  const Result r = ehlsim("impact --quiet --set grid.points=33 --out " + quote(blocker + "/run"));
+  const Result r = ehlsim("impact --quiet --set grid.points=33 --set time.max_steps=2 --out " +
+                          quote((dir / "run").string()));
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err.rfind("ehlsim: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(r.err.rfind("ehlsim: error: time step 2 ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("no lift-off after 2 steps (time.max_steps"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "run"));
 }
 
 TEST(Cli, VersionAndHelp) {
