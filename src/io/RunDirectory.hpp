@@ -125,7 +125,8 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 
 /// `target` absolute, without a trailing separator, with the symbolic links of
 /// its parent resolved (one spelling per directory, for the lock); creates
-/// the parent.  Throws ConfigError for "" or a path without a name.
+/// the parent.  Throws ConfigError for "" or a path without a name, or below a
+/// file; std::runtime_error when the parent cannot be created otherwise.
 [[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
 
 /// Throws ConfigError unless `dir` is missing, an empty directory, or an
