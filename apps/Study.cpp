@@ -10,8 +10,10 @@
 //   <out>/rolling_M<M>/    the rolling contact at the same M and L (profile_x.csv, ...)
 //   <out>/logs/M<M>.log    the output of each child
 //   <out>/dry.csv          T, A_dry of the dry Hertz impact (same Delta0, V0)
-//   <out>/study.json       grid, cases, exit codes, wall times
-//   <out>/figures/         fig1..fig6 and the histories, PNG + CSV
+//   <out>/study.json       grid, cases, exit codes, wall times: written last; an
+//                          earlier study's goes when the first case completes
+//   <out>/figures/         fig1..fig6 and the histories, PNG + CSV: drawn into
+//                          <out>/.figures.part-<pid>/, then swapped in whole
 #include "Study.hpp"
 
 #include <fcntl.h>
@@ -283,7 +285,11 @@ int wait_forwarding(pid_t pid) {
   return exit_code_of(status);
 }
 
-void run_cases(std::vector<Case>& cases, int jobs) {
+/// Runs `cases`, `jobs` at a time.  The first case that completes has replaced
+/// its run directory: `stale_summary` (the study.json of an earlier study,
+/// which described the run replaced) goes then, so that no summary stands
+/// beside runs it does not describe.
+void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary) {
   std::map<pid_t, Case*> running;
   std::size_t next = 0;
   while (next < cases.size() || !running.empty()) {
@@ -325,6 +331,8 @@ void run_cases(std::vector<Case>& cases, int jobs) {
     c.exit_code = exit_code_of(status);
     c.wall_seconds = seconds_since(c.start);
     if (c.exit_code == kExitOk) {
+      std::error_code ec;  // already gone after the first case
+      fs::remove(stale_summary, ec);
       fmt::print("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
     } else {
       fmt::print("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
@@ -346,14 +354,22 @@ void write_dry_reference(const fs::path& path, const ImpactConfig& config) {
   csv.commit();
 }
 
-/// The one line of a study ended by a signal (no study.json is written); its exit code.
-int report_interruption(const std::vector<Case>& cases) {
+/// The one line of a study ended by a signal (no study.json is written); its
+/// exit code.  `after_cases`: what the study was doing after its cases had run.
+int report_interruption(const std::vector<Case>& cases, const std::string& after_cases = "") {
   std::vector<std::string> stopped;
   for (const Case& c : cases) {
     if (c.signalled) stopped.push_back(c.name);
   }
   const int signal = InterruptGuard::received();
   std::fflush(stdout);
+  if (!after_cases.empty()) {
+    std::fprintf(stderr,
+                 "ehlsim: interrupted by %s %s: the study stopped after its cases had run; no "
+                 "study.json was written\n",
+                 signal_name(signal).c_str(), after_cases.c_str());
+    return exit_code_for_signal(signal);
+  }
   std::fprintf(
       stderr, "ehlsim: interrupted by %s: the study stopped%s; no study.json was written\n",
       signal_name(signal).c_str(),
@@ -414,11 +430,48 @@ void check_study_options(const StudyOptions& options) {
                         key);
     }
   }
-  if (!options.no_plots && ::access(options.python.c_str(), X_OK) != 0) {
+  if (options.no_plots) return;
+  std::error_code ec;
+  const char* unusable = nullptr;
+  if (::access(options.python.c_str(), X_OK) != 0) {
+    unusable = std::strerror(errno);
+  } else if (!fs::is_regular_file(options.python, ec)) {
+    unusable = "not a regular file";  // a directory passes access(X_OK)
+  }
+  if (unusable != nullptr) {
     throw ConfigError(
         fmt::format("--python '{}': {} (give a Python 3 with numpy and matplotlib, or --no-plots)",
-                    echo_input(options.python), std::strerror(errno)));
+                    echo_input(options.python), unusable));
   }
+}
+
+/// Runs the figure script (`python script STUDY_DIR FIGURES_DIR`) into a
+/// staging directory beside `out`/figures and puts it in place when the
+/// script succeeds and no signal came: figures/ holds the earlier complete
+/// set or the new one, never a half-drawn mix.  The script's exit code.
+int draw_figures(const std::string& python, const fs::path& script, const fs::path& out,
+                 const fs::path& log) {
+  const fs::path figures = out / "figures";
+  const std::string staging_prefix = ".figures.part-";
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(out, ec)) {
+    // A killed study's (the study lock is ours).
+    if (entry.path().filename().string().starts_with(staging_prefix))
+      fs::remove_all(entry.path(), ec);
+  }
+  const fs::path staging = out / fmt::format("{}{}", staging_prefix, getpid());
+  int code = cli::kExitFailure;
+  try {
+    fs::create_directory(staging);
+    const pid_t pid = spawn(python, {python, script.string(), out.string(), staging.string()}, log);
+    code = wait_forwarding(pid);
+    if (code == kExitOk && InterruptGuard::received() == 0) replace_directory(staging, figures);
+  } catch (const std::runtime_error& e) {
+    std::ofstream(log, std::ios::app) << e.what() << '\n';  // reported like a failed script
+    code = cli::kExitFailure;
+  }
+  fs::remove_all(staging, ec);  // unless published
+  return code;
 }
 
 /// The entry of a case in study.json; a finished impact's snapshots analysed first.
@@ -487,18 +540,23 @@ int run_study(const StudyOptions& options) {
   }
   const fs::path script =
       options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
-  if (!options.no_plots && !fs::exists(script)) {
-    throw ConfigError(fmt::format("--plot-script '{}': no such file", script.string()));
+  if (std::error_code ec; !options.no_plots && !fs::is_regular_file(script, ec)) {
+    throw ConfigError(fmt::format("--plot-script '{}': {}", script.string(),
+                                  fs::exists(script, ec) ? "not a regular file" : "no such file"));
   }
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
+  if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {
+    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", out.string()),
+                      "--out");
+  }
   fs::create_directories(out / "logs");
   fmt::print(
       "ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",
       out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid, fmt::join(kRollingM, ", "),
       options.rolling_grid, options.jobs);
   std::fflush(stdout);
-  run_cases(cases, options.jobs);
+  run_cases(cases, options.jobs, out / "study.json");
   if (InterruptGuard::received() != 0) return report_interruption(cases);
 
   bool ok = true;
@@ -510,12 +568,15 @@ int run_study(const StudyOptions& options) {
       {"overrides", options.overrides},
       {"cases", nlohmann::json::array()}};
   for (const Case& c : cases) {
+    // A signal stops the analysis before its swap: the case keeps its earlier spike files.
+    const std::string analysis =
+        fmt::format("during the spike analysis of {} (its spike files were not changed)", c.name);
     try {
       summary["cases"].push_back(case_summary(c));
     } catch (const RunInterrupted&) {
-      return report_interruption(cases);  // the case keeps its earlier spike files
+      return report_interruption(cases, analysis);
     } catch (const PublishInterrupted&) {
-      return report_interruption(cases);
+      return report_interruption(cases, analysis);
     }
     ok = ok && c.exit_code == cli::kExitOk;
   }
@@ -525,12 +586,9 @@ int run_study(const StudyOptions& options) {
   if (!options.no_plots) {
     const auto plot_start = std::chrono::steady_clock::now();
     const fs::path log = out / "logs" / "plot.log";
-    int code = cli::kExitFailure;
-    try {
-      const pid_t pid = spawn(options.python, {options.python, script.string(), out.string()}, log);
-      code = wait_forwarding(pid);
-    } catch (const std::runtime_error& e) {
-      std::ofstream(log) << e.what() << '\n';  // reported below like a failed script
+    const int code = draw_figures(options.python, script, out, log);
+    if (InterruptGuard::received() != 0) {
+      return report_interruption(cases, "during the figure script (figures/ was not changed)");
     }
     summary["plots"] = {{"script", script.string()},
                         {"exit_code", code},

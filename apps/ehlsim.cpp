@@ -387,8 +387,8 @@ int run(int argc, char** argv) {
   const auto is_command = [&](const CLI::App* command) { return command->check_name(argv[1]); };
   if (argc > 1 && argv[1][0] != '-' && std::as_const(app).get_subcommands(is_command).empty()) {
     print_error(
-        fmt::format("unknown command '{}' (commands: impact, spike, study; try ehlsim "
-                    "--help)",
+        fmt::format("unknown command '{}' (commands: impact, spike, study, rolling; try "
+                    "ehlsim --help)",
                     echo_input(argv[1])));
     return kExitBadInput;
   }

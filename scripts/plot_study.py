@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Figures of `ehlsim study` (Lubrecht & Venner 2022, figures 1-6) and the film and force
-histories of its cases, as PNG plus the CSV behind each, in STUDY_DIR/figures/.
+histories of its cases, as PNG plus the CSV behind each, in FIGURES_DIR (default STUDY_DIR/figures/).
 
-Run with Debian's Python (numpy, matplotlib):  /usr/bin/python3 scripts/plot_study.py STUDY_DIR
+Run with Debian's Python (numpy, matplotlib):
+    /usr/bin/python3 scripts/plot_study.py STUDY_DIR [FIGURES_DIR]
 
 Reads, per case STUDY_DIR/M<M>/: timeseries.csv, spike.csv (in-situ, every step),
 spike_snapshots.csv, spike_profiles.csv, axis_profiles.csv (`ehlsim spike`), run.json;
@@ -371,10 +372,11 @@ def summary(cases, dry):
 
 
 def main():
-    if len(sys.argv) != 2:
-        sys.exit("usage: /usr/bin/python3 scripts/plot_study.py STUDY_DIR")
+    if len(sys.argv) not in (2, 3):
+        sys.exit("usage: /usr/bin/python3 scripts/plot_study.py STUDY_DIR [FIGURES_DIR]")
     study = sys.argv[1]
-    out = os.path.join(study, "figures")
+    # ehlsim study gives a staging directory, which it puts in place as figures/ when done.
+    out = sys.argv[2] if len(sys.argv) == 3 else os.path.join(study, "figures")
     os.makedirs(out, exist_ok=True)
     cases = [load_case(study, M) for M in CASES if os.path.exists(os.path.join(study, f"M{M}", "run.json"))]
     if not cases:

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -119,10 +120,25 @@ TEST(Cli, EmptyPathsAreBadInput) {
   expect_bad_input(ehlsim("study --out ''"), "--out: must name a directory, not be empty");
 }
 
+TEST(Cli, AnOutThatIsOrLiesInAFileIsBadInput) {
+  TempDir dir;
+  const fs::path file = write_file(dir / "afile", "x");
+  const std::string in_file = (file / "sub").string();
+  const std::string is_file = "--out '" + file.string() + "' exists and is not a directory";
+  const std::string below = "--out '" + in_file + "': '" + file.string() + "' is not a directory";
+  expect_bad_input(ehlsim("impact --set grid.points=33 --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(in_file)), below);
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(file.string())), is_file);
+  expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(file.string())), is_file);
+  EXPECT_EQ(read_file(file), "x");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
 TEST(Cli, UnknownCommandIsNamed) {
   expect_bad_input(ehlsim("frobnicate --out x"),
-                   "unknown command 'frobnicate' (commands: impact, spike, study; try ehlsim "
-                   "--help)");
+                   "unknown command 'frobnicate' (commands: impact, spike, study, rolling; try "
+                   "ehlsim --help)");
 }
 
 TEST(Cli, RunawayValuesAreShortenedInErrors) {
@@ -142,12 +158,16 @@ TEST(Cli, RunawayValuesAreShortenedInErrors) {
 }
 
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
+  // (An --out below a file, once the example here, is bad input:
+  // AnOutThatIsOrLiesInAFileIsBadInput.)
   TempDir dir;
-  const std::string blocker = write_file(dir / "file", "not a directory").string();
-  const Result r = ehlsim("impact --quiet --set grid.points=33 --out " + quote(blocker + "/run"));
+  const Result r = ehlsim("impact --quiet --set grid.points=33 --set time.max_steps=2 --out " +
+                          quote((dir / "run").string()));
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err.rfind("ehlsim: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(r.err.rfind("ehlsim: error: time step 2 ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("no lift-off after 2 steps (time.max_steps"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "run"));
 }
 
 TEST(Cli, VersionAndHelp) {
@@ -376,6 +396,12 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
       ehlsim("study --grid 33 --python /nonexistent/python3 --out " + quote(out.string())),
       "--python '/nonexistent/python3': No such file or directory (give a Python 3 "
       "with numpy and matplotlib, or --no-plots)");
+  // A directory is no interpreter or script (a directory passes access(X_OK)).
+  expect_bad_input(ehlsim("study --grid 33 --python /etc --out " + quote(out.string())),
+                   "--python '/etc': not a regular file (give a Python 3 with numpy and "
+                   "matplotlib, or --no-plots)");
+  expect_bad_input(ehlsim("study --grid 33 --plot-script /etc --out " + quote(out.string())),
+                   "--plot-script '/etc': not a regular file");
   expect_bad_input(
       ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
       "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");

@@ -380,6 +380,15 @@ TEST(RegistryErrors, UnreadableAndMalformedFiles) {
   EXPECT_EQ(message.find('\n'), std::string::npos);
   write_file(f, "[case]\nM = 1\nM = 2\n");
   EXPECT_EQ(config_error(f, {}).rfind(f + ":3:", 0), 0u) << config_error(f, {});
+  // An endless or huge input is refused after its first 16 MiB, not read into memory.
+  constexpr std::size_t kLimit = std::size_t{16} << 20;
+  const std::string too_large = ": larger than 16777216 bytes, not a case file";
+  EXPECT_EQ(config_error(fs::path("/dev/zero"), {}),
+            "cannot read config file '/dev/zero'" + too_large);
+  write_file(f, "# " + std::string(kLimit, 'x') + "\n[case]\nM = 20\n");
+  EXPECT_EQ(config_error(f, {}), "cannot read config file '" + f + "'" + too_large);
+  write_file(f, "# " + std::string(kLimit - 20, 'x') + "\n[case]\nM = 20\n");
+  EXPECT_EQ(load_config(fs::path(f), {}).M, 20.0);  // just below the limit: read
 }
 
 TEST(RegistryErrors, InconsistentCombinations) {
@@ -878,6 +887,19 @@ TEST(Checkpoint, ReadingSomethingElseNamesTheFile) {
       FAIL() << "expected an error for " << path;
     } catch (const std::runtime_error& e) {
       EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    }
+  }
+  // A FIFO without a writer would block the open for ever; a directory or a
+  // device is no checkpoint either: refused before it is opened.
+  const fs::path fifo = dir / "fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const fs::path& path : {fifo, dir.path(), fs::path("/dev/zero")}) {
+    try {
+      (void)read_checkpoint(path);
+      FAIL() << "expected an error for " << path;
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), "cannot read checkpoint '" + path.string() +
+                                           "': not a regular file (a directory, FIFO or device)");
     }
   }
 }
@@ -1659,6 +1681,47 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
             "--out '" + (dir / "afile").string() + "' exists and is not a directory");
   EXPECT_EQ(message(""), "--out '': the run directory needs a name");
   EXPECT_EQ(names_in(dir / "user"), std::set<std::string>{"data.csv"});  // untouched
+}
+
+TEST(RunDirectory, ARunIntoASymbolicLinkReplacesTheDirectoryItPointsTo) {
+  TempDir dir;
+  const fs::path real = dir / "real";
+  write_earlier_run(real);
+  fs::create_directory_symlink("real", dir / "link");
+  {
+    RunDirectory run(dir / "link");
+    EXPECT_EQ(run.target(), dir / "link");                    // messages name DIR as given
+    EXPECT_EQ(run.checkpoint(), dir / "real.checkpoint.nc");  // beside the data, not the link
+    write_file(run.staging() / "run.json", "new\n");
+    run.publish(false);
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "link"));
+  EXPECT_EQ(names_in(real), std::set<std::string>{"run.json"});
+  EXPECT_EQ(read_file(real / "run.json"), "new\n");
+  EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"link", "real"}));
+
+  // A dangling link (a chain, here) gets its target created, as a shell's `>` would.
+  fs::create_directory_symlink("sub/later", dir / "next");
+  fs::create_directory_symlink("next", dir / "chain");
+  {
+    RunDirectory run(dir / "chain");
+    write_file(run.staging() / "run.json", "later\n");
+    run.publish(false);
+  }
+  EXPECT_TRUE(fs::is_symlink(dir / "chain"));
+  EXPECT_TRUE(fs::is_symlink(dir / "next"));
+  EXPECT_EQ(read_file(dir / "sub" / "later" / "run.json"), "later\n");
+
+  // A loop is bad input, named.
+  fs::create_directory_symlink("loop-b", dir / "loop-a");
+  fs::create_directory_symlink("loop-a", dir / "loop-b");
+  try {
+    RunDirectory run(dir / "loop-a");
+    FAIL() << "a symbolic link loop was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "--out '" + (dir / "loop-a").string() +
+                                         "': too many levels of symbolic links (a loop?)");
+  }
 }
 
 /// The inode of `path` (a hard link shares it).

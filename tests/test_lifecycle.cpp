@@ -3,8 +3,10 @@
 // directory, foreign directories are refused, write errors and failures leave
 // the earlier run intact, signals checkpoint and clean up, a restart from that
 // checkpoint gives the uninterrupted run's bits, a busy directory is refused,
-// a rolling run stopped by SIGTERM leaves nothing, `ehlsim study` passes a
-// signal on to its cases, `ehlsim spike` replaces its three files in one swap,
+// a rolling run stopped by SIGTERM leaves nothing, a symbolic link --out stays
+// one, `ehlsim study` passes a signal on to its cases and, signalled in its
+// analyses or figure script, leaves no study.json and the earlier figures/,
+// `ehlsim spike` replaces its three files in one swap,
 // and a signal before a swap (during an analysis, after the last step of a
 // run) leaves DIR as it was.  The test hook EHLSIM_TEST_STOP_AT stops the
 // process at a chosen point, so that a test can look and signal there.
@@ -206,6 +208,29 @@ TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
   r = run_into(file, "");
   EXPECT_EQ(r.err, "ehlsim: error: --out '" + file.string() + "' exists and is not a directory\n");
   EXPECT_EQ(r.exit_code, 2);
+}
+
+TEST(Lifecycle, ARunIntoASymbolicLinkLandsWhereItPoints) {
+  TempDir work;
+  const fs::path real = work / "real";
+  fs::create_directories(real);
+  fs::create_directory_symlink("real", work / "link");
+  const std::set<std::string> run_files = {"fields.nc", "run.json", "spike.csv", "timeseries.csv"};
+  for (const char* T_end : {"0.2", "0.3"}) {  // into the empty directory, then over that run
+    const Result r = run_into(work / "link", std::string("--set time.T_end=") + T_end);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(fs::is_symlink(work / "link")) << T_end;
+    EXPECT_EQ(names_in(real), run_files) << T_end;
+  }
+  const auto json = nlohmann::json::parse(read_file(real / "run.json"));
+  EXPECT_EQ(json["invocation"]["overrides"].back(), "time.T_end=0.3");
+  // A dangling link gets its target, as a shell's `>` would.
+  fs::create_directory_symlink("later", work / "pending");
+  const Result r = run_into(work / "pending", "--set time.T_end=0.2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::is_symlink(work / "pending"));
+  EXPECT_EQ(names_in(work / "later"), run_files);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"later", "link", "pending", "real"}));
 }
 
 /// The bytes of every file of a run directory.
@@ -468,6 +493,77 @@ TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
   EXPECT_NE(out.find("(exit 143): ehlsim: interrupted by SIGTERM"), std::string::npos) << out;
   EXPECT_TRUE(fs::exists(study / "M100.checkpoint.nc"));
   EXPECT_TRUE(fs::exists(study / "M50.checkpoint.nc"));
+}
+
+/// A tiny study (33^2 impacts to T = 0.2, 65^2 rolling runs, no figures: a few seconds).
+std::vector<std::string> tiny_study(const fs::path& out) {
+  return {"study", "--grid",         "33",    "--rolling-grid", "65", "--no-plots",
+          "--set", "time.T_end=0.2", "--out", out.string()};
+}
+
+TEST(Lifecycle, ASignalDuringTheStudysAnalysesWritesNoSummary) {
+  TempDir work;
+  const fs::path study = work / "study";
+  const Child earlier = start(tiny_study(study), work / "earlier");
+  ASSERT_EQ(exit_code_of(earlier), 0) << read_file(earlier.err);
+  ASSERT_TRUE(fs::exists(study / "study.json"));
+  const std::set<std::string> complete = names_in(study);
+
+  // Its cases have run (and replaced the earlier study's), the analysis of the
+  // first one (M100) has done its first snapshot: SIGTERM.
+  const Child c = start(tiny_study(study), work / "again", "analysis");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const Result r = resume(c, SIGTERM);
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  EXPECT_EQ(
+      r.err,
+      "ehlsim: interrupted by SIGTERM during the spike analysis of M100 (its spike files were "
+      "not changed): the study stopped after its cases had run; no study.json was written\n");
+  // The earlier study.json described the runs the new cases replaced: it went
+  // with the first of them, so no summary stands beside runs it does not describe.
+  std::set<std::string> expected = complete;
+  expected.erase("study.json");
+  EXPECT_EQ(names_in(study), expected);  // no staging directory, lock or .part file
+  // M100 is its new run, complete, without a half set of spike files.
+  EXPECT_EQ(names_in(study / "M100"),
+            (std::set<std::string>{"fields.nc", "run.json", "spike.csv", "timeseries.csv"}));
+  // The cases not yet analysed are new complete runs too.
+  EXPECT_TRUE(fs::exists(study / "M10" / "run.json"));
+  EXPECT_FALSE(fs::exists(study / "M10" / "spike_snapshots.csv"));
+}
+
+TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
+  TempDir work;
+  const fs::path study = work / "study";
+  // A stand-in for the figure script (no matplotlib needed): it draws two
+  // figures, or, once `slow` exists, one and then waits (exec: the signal the
+  // study passes on reaches the waiting process itself).
+  const fs::path script = work / "figures.sh";
+  std::ofstream(script) << "if [ -e " << quote((work / "slow").string()) << " ]; then\n"
+                        << "  echo new > \"$2/fig1.png\"; exec sleep 60\n"
+                        << "fi\n"
+                        << "echo earlier > \"$2/fig1.png\"; echo earlier > \"$2/fig2.png\"\n";
+  std::vector<std::string> args = tiny_study(study);
+  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
+  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  const Child earlier = start(args, work / "earlier");
+  ASSERT_EQ(exit_code_of(earlier), 0) << read_file(earlier.out) << read_file(earlier.err);
+  ASSERT_EQ(names_in(study / "figures"), (std::set<std::string>{"fig1.png", "fig2.png"}));
+
+  std::ofstream(work / "slow") << "";
+  const Child c = start(args, work / "again");
+  ASSERT_TRUE(wait_for_path(study / (".figures.part-" + std::to_string(c.pid)) / "fig1.png"));
+  kill(c.pid, SIGTERM);
+  const Result r = result_of(c);
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  EXPECT_EQ(r.err,
+            "ehlsim: interrupted by SIGTERM during the figure script (figures/ was not changed): "
+            "the study stopped after its cases had run; no study.json was written\n");
+  EXPECT_EQ(read_file(study / "figures" / "fig1.png"), "earlier\n");  // the earlier set, whole
+  EXPECT_EQ(read_file(study / "figures" / "fig2.png"), "earlier\n");
+  EXPECT_EQ(names_in(study),
+            (std::set<std::string>{"M10", "M100", "M20", "M50", "dry.csv", "figures", "logs",
+                                   "rolling_M100", "rolling_M20"}));  // no staging, no summary
 }
 
 // ----------------------------------------------------------- ehlsim spike, publishing

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <array>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 #include <vector>
 
 namespace ehlsim {
@@ -23,6 +25,13 @@ void check_netcdf(int status, std::string_view action, const std::filesystem::pa
 void require_netcdf4_file(const std::filesystem::path& path, std::string_view action) {
   // The HDF5 format signature: the first 8 bytes of every NetCDF-4 file ehlsim writes.
   constexpr std::array<char, 8> kSignature = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  // Opening a FIFO would wait for a writer, in HDF5 beyond the reach of a signal.
+  std::error_code ec;
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    throw std::runtime_error(fmt::format(
+        "cannot {} '{}': not a regular file (a directory, FIFO or device)", action, path.string()));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return;
   std::array<char, kSignature.size()> head{};

@@ -54,6 +54,10 @@ constexpr std::string_view kDirect = "direct";
 
 /// Source name given to the values of --set overrides.
 constexpr std::string_view kOverrideOrigin = "--set";
+/// The largest config file read: a case is a few hundred bytes, a long
+/// output.snapshot_times list some kB; a runaway value of 10 MB is still read
+/// (to be refused with its key named, shortened).
+constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
 }  // namespace
 
 std::string_view viscosity_model_text(ViscosityModel model) {
@@ -616,6 +620,9 @@ std::string read_config_text(const std::filesystem::path& path) {
   std::size_t got = 0;
   while ((got = std::fread(buffer.data(), 1, buffer.size(), file.get())) > 0) {
     text.append(buffer.data(), got);
+    // /dev/zero, a FIFO that never ends, a wrong file: not read into memory.
+    if (text.size() > kMaxConfigBytes)
+      throw cannot_read(fmt::format("larger than {} bytes, not a case file", kMaxConfigBytes));
   }
   if (std::ferror(file.get())) throw cannot_read(std::generic_category().message(errno));
   return text;

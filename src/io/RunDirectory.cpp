@@ -37,6 +37,8 @@ constexpr std::string_view kOldInfix = ".old-";
 constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
 constexpr std::size_t kHostNameLength = 256;
 constexpr std::size_t kLockTextLength = 512;
+/// Links followed from --out before a chain counts as a loop (Linux's own limit, ELOOP).
+constexpr int kMaxLinkHops = 40;
 
 /// Every file name ehlsim writes into a run directory (impact, spike, rolling).
 const std::set<std::string, std::less<>>& ehlsim_file_names() {
@@ -59,6 +61,26 @@ std::string system_message(int error) { return std::generic_category().message(e
 fs::path without_trailing_separator(fs::path path) {
   if (!path.empty() && path.filename().empty()) path = path.parent_path();
   return path;
+}
+
+/// `target` itself, or the path a symbolic link `target` points to (a chain
+/// followed to its end, which may be missing): the directory a run into
+/// `target` writes, so that the swap replaces that directory, not the link.
+/// Relative links are taken from the link's directory.  ConfigError for a loop.
+fs::path follow_final_link(const fs::path& target) {
+  fs::path path = without_trailing_separator(target);
+  for (int hops = 0;; ++hops) {
+    std::error_code ec;
+    if (!fs::is_symlink(fs::symlink_status(path, ec))) return path;
+    if (hops == kMaxLinkHops) {
+      throw ConfigError(
+          fmt::format("--out '{}': too many levels of symbolic links (a loop?)", target.string()),
+          "--out");
+    }
+    const fs::path link = fs::read_symlink(path);
+    path = without_trailing_separator(
+        (link.is_absolute() ? link : path.parent_path() / link).lexically_normal());
+  }
 }
 
 /// A sibling of `target`: "<parent>/<prefix><name><suffix>".
@@ -172,12 +194,23 @@ void carry_over(const fs::path& from, const fs::path& to,
   for (const fs::path& directory : directories) sync_path(directory);
 }
 
-/// The directory an amendment of `target` changes: the one a symbolic link
-/// `target` points to (the swap would otherwise replace the link).
-fs::path resolve_amended_directory(const fs::path& target) {
-  const fs::path name = without_trailing_separator(target);
+/// Creates the missing parents of `absolute` (--out `shown`): ConfigError when
+/// one of them is a file, std::runtime_error naming the reason otherwise.
+void create_parent_directories(const fs::path& absolute, const fs::path& shown) {
   std::error_code ec;
-  return resolve_run_directory(fs::is_symlink(name, ec) ? fs::canonical(name) : name);
+  fs::create_directories(absolute.parent_path(), ec);
+  if (!ec) return;
+  if (ec == std::errc::not_a_directory || ec == std::errc::file_exists) {
+    fs::path file = absolute.parent_path();  // the first parent that exists
+    std::error_code exists;
+    while (file.has_relative_path() && !fs::exists(fs::status(file, exists)))
+      file = file.parent_path();
+    throw ConfigError(
+        fmt::format("--out '{}': '{}' is not a directory", shown.string(), file.string()), "--out");
+  }
+  throw std::runtime_error(fmt::format("cannot create '{}', the parent directory of --out '{}': {}",
+                                       absolute.parent_path().string(), shown.string(),
+                                       ec.message()));
 }
 
 /// Puts `staging` in the place of the existing directory `target`; afterwards
@@ -225,6 +258,19 @@ void check_replaceable_run_directory(const fs::path& dir) {
   }
 }
 
+void replace_directory(const fs::path& staging, const fs::path& target) {
+  sync_path(staging);
+  fs::path old;
+  if (fs::exists(fs::symlink_status(target))) {
+    old = swap_into_place(staging, target);
+  } else {
+    fs::rename(staging, target);
+  }
+  sync_path(target.parent_path());
+  std::error_code ec;  // leftovers are the next writer's debris, not a failure
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
 PathLock::PathLock(const fs::path& target, const fs::path& shown)
     : path_(sibling(target, ".", kLockSuffix)) {
   for (;;) {
@@ -269,13 +315,14 @@ fs::path resolve_run_directory(const fs::path& target) {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
-  fs::create_directories(absolute.parent_path());
+  create_parent_directories(absolute, target);
   return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
 }
 
 RunDirectory::RunDirectory(const fs::path& target)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_run_directory(target)),
+      directory_(follow_final_link(target_)),
+      resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);
@@ -285,7 +332,8 @@ RunDirectory::RunDirectory(const fs::path& target)
 
 RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
     : target_(without_trailing_separator(target)),
-      resolved_(resolve_amended_directory(target)),
+      directory_(follow_final_link(target_)),
+      resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))),
       amend_(true),
@@ -305,7 +353,7 @@ RunDirectory::~RunDirectory() {
   fs::remove_all(staging_, ec);
 }
 
-fs::path RunDirectory::checkpoint() const { return sibling(target_, "", kCheckpointSuffix); }
+fs::path RunDirectory::checkpoint() const { return sibling(directory_, "", kCheckpointSuffix); }
 
 void RunDirectory::publish(bool with_checkpoint) {
   if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);

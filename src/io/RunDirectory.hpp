@@ -22,6 +22,9 @@
 // before the swap the staging directory gets hard links of everything else in
 // DIR, so the same swap publishes the new files together and nothing else
 // changes.
+//
+// A DIR that is a symbolic link stays one: DIR above is then the directory it
+// points to (created when missing), which the run replaces or amends.
 #include <sys/types.h>
 
 #include <filesystem>
@@ -84,7 +87,8 @@ class RunDirectory {
   [[nodiscard]] const std::filesystem::path& target() const { return target_; }
   /// Where the files of the new run are written.
   [[nodiscard]] const std::filesystem::path& staging() const { return staging_; }
-  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints.
+  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints
+  /// (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
 
   /// Makes the staged run DIR (with `checkpoint()` as DIR/checkpoint.nc when
@@ -98,8 +102,9 @@ class RunDirectory {
   [[nodiscard]] bool published() const { return published_; }
 
  private:
-  std::filesystem::path target_;    ///< as given
-  std::filesystem::path resolved_;  ///< absolute, symlinks of the parents resolved
+  std::filesystem::path target_;     ///< as given
+  std::filesystem::path directory_;  ///< as given, a symbolic link followed
+  std::filesystem::path resolved_;   ///< absolute, symlinks of the parents resolved
   PathLock lock_;
   std::filesystem::path staging_;
   bool amend_ = false;
@@ -111,9 +116,17 @@ class RunDirectory {
   void check_target_unchanged() const;
 };
 
+/// Puts the complete directory `staging` in the place of `target` (missing
+/// or a directory) in one atomic step, as publish() does, and removes what
+/// `target` held: a reader sees the earlier contents or the new ones.
+/// Both must be on one file system; the caller holds a lock on `target`.
+/// Throws std::runtime_error when a file cannot be synced or renamed.
+void replace_directory(const std::filesystem::path& staging, const std::filesystem::path& target);
+
 /// `target` absolute, without a trailing separator, with the symbolic links of
 /// its parent resolved (one spelling per directory, for the lock); creates
-/// the parent.  Throws ConfigError for "" or a path without a name.
+/// the parent.  Throws ConfigError for "" or a path without a name, or below a
+/// file; std::runtime_error when the parent cannot be created otherwise.
 [[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
 
 /// Throws ConfigError unless `dir` is missing, an empty directory, or an
