@@ -215,7 +215,8 @@ TEST(Lifecycle, ARunIntoASymbolicLinkLandsWhereItPoints) {
   const fs::path real = work / "real";
   fs::create_directories(real);
   fs::create_directory_symlink("real", work / "link");
-  const std::set<std::string> run_files = {"fields.nc", "run.json", "spike.csv", "timeseries.csv"};
+  const std::set<std::string> run_files = {"convergence.csv", "fields.nc", "run.json", "spike.csv",
+                                           "timeseries.csv"};
   for (const char* T_end : {"0.2", "0.3"}) {  // into the empty directory, then over that run
     const Result r = run_into(work / "link", std::string("--set time.T_end=") + T_end);
     ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -526,7 +527,8 @@ TEST(Lifecycle, ASignalDuringTheStudysAnalysesWritesNoSummary) {
   EXPECT_EQ(names_in(study), expected);  // no staging directory, lock or .part file
   // M100 is its new run, complete, without a half set of spike files.
   EXPECT_EQ(names_in(study / "M100"),
-            (std::set<std::string>{"fields.nc", "run.json", "spike.csv", "timeseries.csv"}));
+            (std::set<std::string>{"convergence.csv", "fields.nc", "run.json", "spike.csv",
+                                   "timeseries.csv"}));
   // The cases not yet analysed are new complete runs too.
   EXPECT_TRUE(fs::exists(study / "M10" / "run.json"));
   EXPECT_FALSE(fs::exists(study / "M10" / "spike_snapshots.csv"));
