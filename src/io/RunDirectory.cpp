@@ -235,6 +235,22 @@ fs::path swap_into_place(const fs::path& staging, const fs::path& target) {
   return old;
 }
 
+/// Puts `staging` in the place of `target`: one atomic exchange when `target`
+/// exists, else a rename.  Returns where the earlier `target` is now (empty
+/// when there was none), for settle_replacement.
+fs::path put_in_place(const fs::path& staging, const fs::path& target, bool target_exists) {
+  if (target_exists) return swap_into_place(staging, target);
+  fs::rename(staging, target);
+  return {};
+}
+
+/// After put_in_place: the renames made durable and the earlier contents removed.
+void settle_replacement(const fs::path& target, const fs::path& old) {
+  sync_path(target.parent_path());
+  std::error_code ec;  // leftovers are the next writer's debris, not this one's failure
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
 }  // namespace
 
 void check_replaceable_run_directory(const fs::path& dir) {
@@ -260,15 +276,7 @@ void check_replaceable_run_directory(const fs::path& dir) {
 
 void replace_directory(const fs::path& staging, const fs::path& target) {
   sync_path(staging);
-  fs::path old;
-  if (fs::exists(fs::symlink_status(target))) {
-    old = swap_into_place(staging, target);
-  } else {
-    fs::rename(staging, target);
-  }
-  sync_path(target.parent_path());
-  std::error_code ec;  // leftovers are the next writer's debris, not a failure
-  if (!old.empty()) fs::remove_all(old, ec);
+  settle_replacement(target, put_in_place(staging, target, fs::exists(fs::symlink_status(target))));
 }
 
 PathLock::PathLock(const fs::path& target, const fs::path& shown)
@@ -367,17 +375,11 @@ void RunDirectory::publish(bool with_checkpoint) {
   stop_here_for_tests("publish");
   check_target_unchanged();
   if (const int signal = InterruptGuard::received(); signal != 0) throw PublishInterrupted(signal);
-  fs::path old;
-  if (fs::exists(resolved_)) {
-    old = swap_into_place(staging_, resolved_);
-  } else {
-    fs::rename(staging_, resolved_);
-  }
+  const fs::path old = put_in_place(staging_, resolved_, fs::exists(resolved_));
   published_ = true;
-  sync_path(resolved_.parent_path());
-  std::error_code ec;  // leftovers are the next run's debris, not this run's failure
-  if (!old.empty()) fs::remove_all(old, ec);
+  settle_replacement(resolved_, old);
   // A new run supersedes the checkpoint of an interrupted one; an amendment does not.
+  std::error_code ec;
   if (!amend_) fs::remove(checkpoint(), ec);
 }
 
