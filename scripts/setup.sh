@@ -6,6 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libfftw3-dev            # FFT convolution of the deformation integral
+  liblapack-dev           # dense solves of the local Newton step (reference LAPACK)
   libtomlplusplus-dev     # configuration files
   libcli11-dev            # command line
   libfmt-dev              # formatting

@@ -17,6 +17,7 @@
 #include "impact/AttemptPolicy.hpp"
 #include "impact/RunGuards.hpp"
 #include "multigrid/Fas.hpp"
+#include "reynolds/LocalNewton.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
 
 namespace ehlsim {
@@ -178,6 +179,8 @@ struct ImpactProblem::Impl {
   /// attempt ended above the tolerance.  Offers every iterate to `best`.
   /// Throws on divergence.
   bool iterate_time_step(const CycleRecord& attempt, const BallState& ball, BestIterate& best);
+  /// One local Newton step on the finest grid, where its residual is largest.
+  void newton_on_worst_window();
   StepRecord make_record(int step, const BallState& ball, double force) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
@@ -383,6 +386,11 @@ bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const Ba
     solver->cycle();
     set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
     last_residual = solver->residual_norm();
+    if (cfg.local_newton_half_width > 0 && last_residual >= cfg.tolerance) {
+      newton_on_worst_window();
+      set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
+      last_residual = solver->residual_norm();
+    }
     last_cycles = c;
     history.push_back(last_residual);
     report.cycle = c;
@@ -409,6 +417,14 @@ bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const Ba
         break;
     }
   }
+}
+
+void ImpactProblem::Impl::newton_on_worst_window() {
+  reynolds::ReynoldsOperator& fine = hierarchy.finest();
+  Field& P = solver->solution();
+  const reynolds::Window window =
+      reynolds::window_at_largest_residual(fine, P, solver->rhs(), cfg.local_newton_half_width);
+  reynolds::local_newton_step(fine, P, solver->rhs(), window);
 }
 
 void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {

@@ -12,6 +12,10 @@ namespace {
 // Relative step of the finite-difference derivative d rho / d P; rho is smooth
 // and O(1), so a step near sqrt(machine epsilon) balances truncation and round-off.
 constexpr double kDensityDerivativeStep = 1e-7;
+// Step of the one-sided difference of ln(rho / eta): ln(eta) is smooth, with
+// slopes up to alpha_bar ~ 30, so the truncation error is about 1e-6 alpha_bar^2
+// relative, and the round-off of the log difference about 1e-10.
+constexpr double kFlowFactorSlopeStep = 1e-6;
 }  // namespace
 
 ReynoldsOperator::ReynoldsOperator(const Grid2D& grid, const Lubricant& lubricant,
@@ -40,6 +44,15 @@ ReynoldsOperator::ReynoldsOperator(const Grid2D& grid, const Lubricant& lubrican
 
 double ReynoldsOperator::kernel(int di, int dj) const {
   return deformation_ ? deformation_->kernel()(di, dj) : 0.0;
+}
+
+double ReynoldsOperator::flow_factor_log_slope(double p) const {
+  // The rheology sees max(P, 0) (update_rheology): no slope below zero.
+  if (p < 0.0) return 0.0;
+  const auto log_factor = [&](double q) {
+    return std::log(lubricant_.rho_bar(q)) - lubricant_.log_eta_bar(q);
+  };
+  return (log_factor(p + kFlowFactorSlopeStep) - log_factor(p)) / kFlowFactorSlopeStep;
 }
 
 void ReynoldsOperator::update_coefficients(const Field& P) {

@@ -59,6 +59,29 @@ inline double face_coefficient(double a, double b, FaceMean mean) {
   return sum > 0.0 ? 2.0 * a * b / sum : 0.0;
 }
 
+/// The partial derivatives of face_coefficient(a, b, mean) with respect to a
+/// and b: how a face's flow coefficient follows the point values of xi (the
+/// Newton terms of a coefficient that depends on the pressure).
+struct FaceSlopes {
+  double a, b;
+};
+inline FaceSlopes face_coefficient_slopes(double a, double b, FaceMean mean) {
+  if (mean == FaceMean::Arithmetic) return {0.5, 0.5};
+  if (mean == FaceMean::Logarithmic) {
+    if (a <= 0.0 || b <= 0.0) return {0.0, 0.0};
+    const double ratio = a / b;
+    if (std::abs(ratio - 1.0) < kLogMeanSeriesBound) return {0.5, 0.5};
+    // F = (a - b) / L with L = ln(a / b): dF/da = (1 - F/a) / L, dF/db = (F/b - 1) / L.
+    const double log_ratio = std::log(ratio);
+    const double F = (a - b) / log_ratio;
+    return {(1.0 - F / a) / log_ratio, (F / b - 1.0) / log_ratio};
+  }
+  const double sum = a + b;
+  if (sum <= 0.0) return {0.0, 0.0};
+  // F = 2ab / (a + b).
+  return {2.0 * b * b / (sum * sum), 2.0 * a * a / (sum * sum)};
+}
+
 /// Sinusoidal surface waviness added to the gap: A cos(2 pi (X cos th + Y sin th) / wavelength).
 struct Waviness {
   double amplitude = 0.0;
@@ -190,6 +213,21 @@ class ReynoldsOperator {
   [[nodiscard]] const Field& density_derivative() const { return drho_; }
   /// Deformation kernel coefficient K(di, dj) of this grid (0 when rigid).
   [[nodiscard]] double kernel(int di, int dj) const;
+  /// dH(a, b) / dP(k, l): the film's response at point (a, b) to the pressure
+  /// of the unknown (k, l), which on a mirrored grid stands for its images
+  /// (+-k, +-l) too (0 when rigid).
+  [[nodiscard]] double film_slope(int a, int b, int k, int l) const {
+    double slope = kernel(a - k, b - l);
+    if (grid_.mirrored) {
+      if (k > 0) slope += kernel(a + k, b - l);
+      if (l > 0) slope += kernel(a - k, b + l);
+      if (k > 0 && l > 0) slope += kernel(a + k, b + l);
+    }
+    return slope;
+  }
+  /// d ln(rho / (eta lambda_bar)) / dP at pressure p: the local part of the
+  /// relative change of xi with the pressure (its film part is 3 dH / H).
+  [[nodiscard]] double flow_factor_log_slope(double p) const;
 
   /// |dN_ij / dP_ij| from the frozen coefficients (flow and elastic-squeeze part).
   [[nodiscard]] double diagonal_at(int i, int j) const;

@@ -34,11 +34,13 @@ struct Lubricant {
 
   /// eta/eta0 at dimensionless pressure P.  P < 0 (cavitated, should not be
   /// passed) counts as 0, so a slightly negative iterate cannot make eta < 1.
-  [[nodiscard]] double eta_bar(double P) const {
+  [[nodiscard]] double eta_bar(double P) const { return std::exp(log_eta_bar(P)); }
+  /// ln(eta/eta0): finite where eta_bar overflows (alpha_bar P > 709).
+  [[nodiscard]] double log_eta_bar(double P) const {
     const double Pc = std::max(P, 0.0);
-    if (viscosity == ViscosityModel::Barus) return std::exp(alpha_bar * Pc);
-    return std::exp((std::log(eta0_Pa_s) + kRoelandsLnEtaInf) *
-                    (std::pow(1.0 + Pc * ph_star_Pa / kRoelandsP0_Pa, roelands_z) - 1.0));
+    if (viscosity == ViscosityModel::Barus) return alpha_bar * Pc;
+    return (std::log(eta0_Pa_s) + kRoelandsLnEtaInf) *
+           (std::pow(1.0 + Pc * ph_star_Pa / kRoelandsP0_Pa, roelands_z) - 1.0);
   }
 
   /// rho/rho0 at dimensionless pressure P (P < 0 counts as 0).

@@ -1,0 +1,213 @@
+#include "reynolds/LocalNewton.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+#include "reynolds/DenseSolve.hpp"
+
+namespace ehlsim::reynolds {
+
+namespace {
+/// Passes of the projected solve, as in the line relaxation: the active set
+/// of a window settles in one or two.
+constexpr int kMaxActiveSetPasses = 4;
+
+/// The residual of N(P) = f at an interior point, as the FAS level counts it:
+/// where P = 0 only a residual that would raise the pressure.
+double point_residual(const ReynoldsOperator& op, const Field& P, const Field& f, int i, int j) {
+  const double r = f(i, j) - op.apply_at(P, i, j);
+  return P(i, j) > 0.0 ? r : std::min(r, 0.0);
+}
+
+/// The window's unknowns, numbered row by row; on a mirrored grid an index
+/// across an axis is its mirror image.
+struct WindowIndex {
+  const Window& window;
+  bool mirrored;
+  /// The unknown of point (i, j), or -1 outside the window.
+  [[nodiscard]] int operator()(int i, int j) const {
+    if (mirrored) i = std::abs(i), j = std::abs(j);
+    if (!window.contains(i, j)) return -1;
+    return (j - window.j0) * window.width() + (i - window.i0);
+  }
+};
+
+/// A point whose film enters a row of N, and the row's derivative with
+/// respect to that film.
+struct FilmTerm {
+  int i, j;
+  double weight;
+};
+
+/// One row of the Jacobian (column-major matrix `J` of the window's size):
+/// d N(i, j) / d P(q) for every unknown q.  N holds P directly through the
+/// flow stencil, and the films of the point, its four neighbours (through xi
+/// on the faces) and its transport taps, each of which follows every pressure
+/// through the elastic kernel.
+void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIndex& index, int i,
+                      int j, std::vector<double>& J) {
+  const int m = index.window.size();
+  const int row = index(i, j);
+  const auto entry = [&](int q) -> double& { return J[static_cast<std::size_t>(q) * m + row]; };
+  const double h2 = op.grid().h() * op.grid().h();
+  const Field& xi = op.xi();
+  const Field& H = op.film();
+  const ReynoldsOperator::Faces faces = op.faces_at(i, j);
+  const std::array<std::array<int, 2>, 4> neighbour{
+      {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}}};
+  const std::array<double, 4> face{faces.west, faces.east, faces.south, faces.north};
+  // At most the point, its four neighbours and two more taps upstream.
+  std::array<FilmTerm, 7> films{};
+  int film_count = 0;
+  const auto add_film = [&](int a, int b, double weight) {
+    for (int k = 0; k < film_count; ++k) {
+      if (films[k].i == a && films[k].j == b) {
+        films[k].weight += weight;
+        return;
+      }
+    }
+    films[film_count++] = {a, b, weight};
+  };
+  const double xi_p = xi(i, j);
+  // d xi / d H = 3 xi / H where the film is open (xi uses max(H, 0)).
+  const double xi_film_p = H(i, j) > 0.0 ? 3.0 * xi_p / H(i, j) : 0.0;
+  for (int k = 0; k < 4; ++k) {
+    const auto [a, b] = neighbour[k];
+    entry(row) -= face[k] / h2;
+    if (const int q = index(a, b); q >= 0) entry(q) += face[k] / h2;
+    // The face coefficient follows xi at both of its ends.
+    const double gradient = (P(a, b) - P(i, j)) / h2;
+    const FaceSlopes slope = face_coefficient_slopes(xi_p, xi(a, b), op.face_mean());
+    entry(row) += gradient * slope.a * xi_p * op.flow_factor_log_slope(P(i, j));
+    if (const int q = index(a, b); q >= 0)
+      entry(q) += gradient * slope.b * xi(a, b) * op.flow_factor_log_slope(P(a, b));
+    const double xi_film_n = H(a, b) > 0.0 ? 3.0 * xi(a, b) / H(a, b) : 0.0;
+    add_film(i, j, gradient * slope.a * xi_film_p);
+    add_film(a, b, gradient * slope.b * xi_film_n);
+  }
+  // The transport term -sum_t w_t (rho H)(i - t, j): its density and its film.
+  const TransportTaps taps = op.taps_at(i);
+  for (int t = 0; t < kTransportTaps; ++t) {
+    if (taps.weight[t] == 0.0) continue;
+    if (const int q = index(i - t, j); q >= 0)
+      entry(q) -= taps.weight[t] * op.density_derivative()(i - t, j) * H(i - t, j);
+    add_film(i - t, j, -taps.weight[t] * op.density()(i - t, j));
+  }
+  if (!op.elastic()) return;
+  const Window& w = index.window;
+  for (int l = w.j0; l <= w.j1; ++l) {
+    for (int k = w.i0; k <= w.i1; ++k) {
+      double sum = 0.0;
+      for (int t = 0; t < film_count; ++t)
+        sum += films[t].weight * op.film_slope(films[t].i, films[t].j, k, l);
+      entry(index(k, l)) += sum;
+    }
+  }
+}
+
+/// Solves J dP = r with the held rows (held[q] finite: dP(q) = held[q])
+/// replaced by identity rows, holding at P = 0 every free point the step
+/// would make negative, until the active set settles.
+std::vector<double> solve_projected(const std::vector<double>& J, const std::vector<double>& r,
+                                    std::vector<double>& held, const std::vector<double>& p) {
+  const int m = static_cast<int>(r.size());
+  std::vector<double> A, x;
+  for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
+    A = J;
+    x = r;
+    for (int q = 0; q < m; ++q) {
+      if (std::isnan(held[q])) continue;
+      for (int c = 0; c < m; ++c) A[static_cast<std::size_t>(c) * m + q] = 0.0;
+      A[static_cast<std::size_t>(q) * m + q] = 1.0;
+      x[q] = held[q];
+    }
+    if (!solve_dense(A, x, m))
+      throw std::runtime_error("local Newton step: the window's Jacobian is singular");
+    bool settled = true;
+    for (int q = 0; q < m; ++q) {
+      if (std::isnan(held[q]) && p[q] + x[q] < 0.0) {
+        held[q] = -p[q];
+        settled = false;
+      }
+    }
+    if (settled) break;
+  }
+  return x;
+}
+}  // namespace
+
+namespace {
+/// The largest pressure-scaled residual of the window's points.
+double largest_scaled_residual(const ReynoldsOperator& op, const Field& P, const Field& f,
+                               const Window& window) {
+  double largest = 0.0;
+  for (int j = window.j0; j <= window.j1; ++j)
+    for (int i = window.i0; i <= window.i1; ++i)
+      largest = std::max(largest, std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j)));
+  return largest;
+}
+}  // namespace
+
+Window window_at_largest_residual(ReynoldsOperator& op, const Field& P, const Field& f,
+                                  int half_width) {
+  op.update_coefficients(P);
+  const Grid2D& grid = op.grid();
+  const int first = grid.first_interior();
+  double largest = -1.0;
+  int ic = first, jc = first;
+  for (int j = first; j < grid.n - 1; ++j) {
+    for (int i = first; i < grid.n - 1; ++i) {
+      const double scaled = std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j));
+      if (scaled > largest) largest = scaled, ic = i, jc = j;
+    }
+  }
+  return {std::max(first, ic - half_width), std::min(grid.n - 2, ic + half_width),
+          std::max(first, jc - half_width), std::min(grid.n - 2, jc + half_width)};
+}
+
+LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f,
+                                  const Window& window) {
+  op.update_coefficients(P);
+  const WindowIndex index{window, op.grid().mirrored};
+  const int m = window.size();
+  std::vector<double> J(static_cast<std::size_t>(m) * m, 0.0), r(m), p(m);
+  // held: NaN for a free unknown, else the change it is held to.
+  std::vector<double> held(m, std::numeric_limits<double>::quiet_NaN());
+  LocalNewtonStep step{m, 0};
+  for (int j = window.j0; j <= window.j1; ++j) {
+    for (int i = window.i0; i <= window.i1; ++i) {
+      const int q = index(i, j);
+      p[q] = P(i, j);
+      r[q] = f(i, j) - op.apply_at(P, i, j);
+      // A cavitated point whose residual would lower the pressure stays at 0.
+      if (P(i, j) <= 0.0 && r[q] >= 0.0) held[q] = 0.0;
+      add_jacobian_row(op, P, index, i, j, J);
+    }
+  }
+  const double before = largest_scaled_residual(op, P, f, window);
+  const std::vector<double> change = solve_projected(J, r, held, p);
+  for (int j = window.j0; j <= window.j1; ++j) {
+    for (int i = window.i0; i <= window.i1; ++i) {
+      const int q = index(i, j);
+      if (!std::isnan(held[q])) ++step.held;
+      P(i, j) = std::max(0.0, P(i, j) + change[q]);
+    }
+  }
+  op.update_coefficients(P);
+  // Far from the solution (a rough iterate, a coefficient that jumps by
+  // orders between neighbours) the linearisation can overshoot: a step that
+  // leaves the window worse than it was is undone.
+  if (largest_scaled_residual(op, P, f, window) > before) {
+    for (int j = window.j0; j <= window.j1; ++j)
+      for (int i = window.i0; i <= window.i1; ++i) P(i, j) = p[index(i, j)];
+    op.update_coefficients(P);
+    step.accepted = false;
+  }
+  return step;
+}
+
+}  // namespace ehlsim::reynolds
