@@ -1,12 +1,15 @@
 // The reynolds component: the line relaxation and the local Newton step of
-// the transient Reynolds equation (the operator itself is checked through the impact runs of
-// test_impact: analytic squeeze films, orders of convergence).
+// the transient Reynolds equation, and the operator's derivatives they use
+// (the operator itself is checked through the impact runs of test_impact:
+// analytic squeeze films, orders of convergence).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <ostream>
 #include <random>
 #include <string>
+#include <utility>
 
 #include "grid/Grid.hpp"
 #include "reynolds/BandSolve.hpp"
@@ -334,6 +337,38 @@ TEST(LocalNewton, RepairsALocalErrorInsideItsWindowOnly) {
     }
   }
   EXPECT_LT(error, 0.2 * 1e-2);
+}
+
+// The exact slopes of the three face means against central differences,
+// near equal values (the log mean's series branch) and far apart.
+TEST(FaceCoefficientSlopes, MatchTheDifferencesOfTheMean) {
+  for (const FaceMean mean : {FaceMean::Arithmetic, FaceMean::Harmonic, FaceMean::Logarithmic}) {
+    for (const auto& [a, b] : {std::pair{1.0, 1.0 + 1e-6}, std::pair{2.0, 3.0},
+                               std::pair{1e-8, 5.0}, std::pair{7.0, 0.01}}) {
+      const FaceSlopes slope = face_coefficient_slopes(a, b, mean);
+      const double da = 1e-6 * a, db = 1e-6 * b;
+      const double fa =
+          (face_coefficient(a + da, b, mean) - face_coefficient(a - da, b, mean)) / (2.0 * da);
+      const double fb =
+          (face_coefficient(a, b + db, mean) - face_coefficient(a, b - db, mean)) / (2.0 * db);
+      // Truncation error, plus the rounding of the mean divided by the step.
+      const double mean_rounding = 1e-15 * face_coefficient(a, b, mean);
+      EXPECT_NEAR(slope.a, fa, 1e-5 * std::max(1.0, std::abs(fa)) + mean_rounding / da)
+          << a << ", " << b;
+      EXPECT_NEAR(slope.b, fb, 1e-5 * std::max(1.0, std::abs(fb)) + mean_rounding / db)
+          << a << ", " << b;
+    }
+  }
+}
+
+// d ln(rho / eta) / dP: -alpha_bar for Barus and an incompressible fluid.
+TEST(FlowFactorLogSlope, IsMinusAlphaForBarus) {
+  Lubricant lubricant;
+  lubricant.alpha_bar = 16.9;
+  const ReynoldsOperator op(Grid2D(17, 1.5), lubricant, OperatorSettings{});
+  for (const double p : {0.0, 0.5, 3.0, 60.0})  // 60: eta_bar itself overflows
+    EXPECT_NEAR(op.flow_factor_log_slope(p), -16.9, 1e-6) << p;
+  EXPECT_EQ(op.flow_factor_log_slope(-0.1), 0.0);
 }
 
 }  // namespace

@@ -90,10 +90,9 @@ struct ImpactConfig : SolverSettings {
   /// After each multigrid cycle of a time step that leaves the residual above
   /// the tolerance: one Newton step on the window of this many meshes to each
   /// side of the largest pressure-scaled residual (reynolds/LocalNewton.hpp);
-  /// 0: none.  6: on 513^2 the pocket collapse took 138 instead of 398 work
-  /// units per step and no step was kept above the tolerance; 10 saved a
-  /// third more work there, but its dense systems (up to 441 unknowns) cost
-  /// more time than the work saved (docs/performance.md).
+  /// 0: none.  6: on 513^2 the pocket collapse took 163 instead of 398 work
+  /// units per step and no step was kept above the tolerance (docs/
+  /// performance.md, "The local Newton step").
   int local_newton_half_width = 6;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.

@@ -16,11 +16,9 @@ namespace {
 /// of a window settles in one or two.
 constexpr int kMaxActiveSetPasses = 4;
 
-/// The residual of N(P) = f at an interior point, as the FAS level counts it:
-/// where P = 0 only a residual that would raise the pressure.
+/// The residual of N(P) = f at an interior point, as the FAS level counts it.
 double point_residual(const ReynoldsOperator& op, const Field& P, const Field& f, int i, int j) {
-  const double r = f(i, j) - op.apply_at(P, i, j);
-  return P(i, j) > 0.0 ? r : std::min(r, 0.0);
+  return constrained_residual(P(i, j), f(i, j) - op.apply_at(P, i, j));
 }
 
 /// The window's unknowns, numbered row by row; on a mirrored grid an index

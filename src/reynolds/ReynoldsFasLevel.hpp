@@ -24,12 +24,8 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
   void apply(const Field& u, Field& Nu) override { op_.apply(u, Nu); }
   void residual(const Field& u, const Field& f, Field& r) override {
     op_.apply(u, r);
-    for (std::size_t k = 0; k < r.size(); ++k) {
-      const double res = f[k] - r[k];
-      // Where P = 0 the equation holds as an inequality: only a residual that
-      // would raise the pressure (res < 0, since dN/dP < 0) is a residual.
-      r[k] = u[k] > 0.0 ? res : std::min(res, 0.0);
-    }
+    for (std::size_t k = 0; k < r.size(); ++k)
+      r[k] = reynolds::constrained_residual(u[k], f[k] - r[k]);
     zero_boundary(r);
   }
   /// The coarse-grid correction is applied only inside the pressurized region

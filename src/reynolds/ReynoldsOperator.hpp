@@ -19,6 +19,7 @@
 // (apply_at) and the line relaxation differentiates it (faces_at, taps_at).
 // The operator knows nothing of the solver; it exposes its frozen
 // coefficients (H, rho, xi) for the relaxation.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -116,6 +117,11 @@ inline bool is_pressurized(const Field& P, int i, int j) {
   return P(i, j) > 0.0 && P(i - 1, j) > 0.0 && P(i + 1, j) > 0.0 && P(i, j - 1) > 0.0 &&
          P(i, j + 1) > 0.0;
 }
+
+/// The residual r = f - N(P) of a point as the constrained problem (P >= 0)
+/// counts it: where P = 0 the equation holds as an inequality, and only a
+/// residual that would raise the pressure (r < 0, since dN/dP < 0) is one.
+inline double constrained_residual(double P, double r) { return P > 0.0 ? r : std::min(r, 0.0); }
 
 /// Points upstream (-X) whose rho H enter the transport term of a point.
 inline constexpr int kTransportTaps = 3;
