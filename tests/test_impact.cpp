@@ -1332,3 +1332,25 @@ TEST(AttemptPolicy, DoesNotExtendASlowOrHopelessAttempt) {
   ASSERT_GT(at_cap.back(), kTolerance);
   EXPECT_EQ(judge_attempt(at_cap, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
 }
+
+// A step that needed a heavier attempt makes it the next step's first; after
+// kStepsBeforeLighterAttempt steps solved there the next lighter one is tried.
+TEST(AttemptMemory, StartsWhereTheLastStepConvergedAndStepsBackAfterAStreak) {
+  AttemptMemory memory;
+  memory = remember_attempt(memory, 0);
+  EXPECT_EQ(memory.first, 0);  // light steps never leave attempt 0
+  EXPECT_EQ(memory.streak, 0);
+  memory = remember_attempt(memory, 2);
+  EXPECT_EQ(memory.first, 2);
+  for (int k = 1; k < kStepsBeforeLighterAttempt; ++k) {
+    memory = remember_attempt(memory, 2);
+    EXPECT_EQ(memory.first, 2) << k;
+    EXPECT_EQ(memory.streak, k);
+  }
+  memory = remember_attempt(memory, 2);
+  EXPECT_EQ(memory.first, 1);
+  EXPECT_EQ(memory.streak, 0);
+  memory = remember_attempt(memory, kMaxRetries);  // the lighter one failed again
+  EXPECT_EQ(memory.first, kMaxRetries);
+  EXPECT_EQ(memory.streak, 0);
+}

@@ -937,7 +937,7 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   ehlsim::testing::rewrite_attribute(path, "format_version", 2);
   EXPECT_EQ(checkpoint_error(path),
             prefix +
-                "field 'format_version' is 2; this ehlsim reads version 3 only (checkpoints "
+                "field 'format_version' is 2; this ehlsim reads version 4 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
 }
 
@@ -967,6 +967,10 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
             prefix + "'summary_steps' = 41 differs from step = 42");
   EXPECT_EQ(error_of([](ImpactState& s) { s.summary.retried_steps = -1; }),
             prefix + "'summary_retried_steps' = -1: must be in [0, step = 42]");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.attempts.first = kMaxRetries + 1; }),
+            prefix + "'attempts_first' = 4: must be in [0, 3]");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.attempts.streak = kStepsBeforeLighterAttempt; }),
+            prefix + "'attempts_streak' = 3: must be in [0, 2]");
   EXPECT_EQ(error_of([](ImpactState& s) {
               s.step = 0;
               s.summary.steps = 0;

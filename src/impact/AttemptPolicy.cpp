@@ -26,6 +26,12 @@ bool worth_extending(std::span<const double> history, double tolerance, int max_
 }
 }  // namespace
 
+AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
+  if (converged_in > memory.first) return {converged_in, 0};
+  if (memory.first == 0 || ++memory.streak < kStepsBeforeLighterAttempt) return memory;
+  return {memory.first - 1, 0};
+}
+
 AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles) {
   const double now = history.back();
   if (now < tolerance) return AttemptVerdict::Converged;

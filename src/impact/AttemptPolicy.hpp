@@ -32,6 +32,31 @@ inline constexpr int kRateWindow = 4;
 /// ... is below this and reaches the tolerance within the extension.
 inline constexpr double kSteadyRate = 0.9;
 
+/// Retries of a diverged or stalled step: attempts 1 .. kMaxRetries, each
+/// more damped than the last (ImpactProblem.cpp, attempt_damping).
+inline constexpr int kMaxRetries = 3;
+
+/// Where the attempts of the next time step begin.  The hard stretches of a
+/// run (the spike phase on fine grids, the pocket collapse) last many steps,
+/// and there a step needs the attempt its predecessor needed: on 1025^2 every
+/// first attempt of the rebound from T = 3.2 on diverged, and in the pocket
+/// collapse the first two attempts failed in most steps, the second one often
+/// only after 20 cycles.  So a step starts with the attempt that solved the
+/// step before, and after kStepsBeforeLighterAttempt steps solved that way it
+/// tries the next lighter one again (docs/performance.md: 1025^2, T = 4.10 to
+/// lift-off, 635 -> 317 work units per step; T = 3.20-3.35, 101 -> 108).
+struct AttemptMemory {
+  int first = 0;   ///< the attempt the next step starts with, in [0, kMaxRetries]
+  int streak = 0;  ///< steps solved in a row in attempt `first`, < kStepsBeforeLighterAttempt
+};
+/// Measured on 1025^2: 8 held the damped attempts for too long in the rebound
+/// (125 work units per step instead of 108 with 3).
+inline constexpr int kStepsBeforeLighterAttempt = 3;
+
+/// The memory after a step that started in `memory.first` converged in
+/// attempt `converged_in`.
+[[nodiscard]] AttemptMemory remember_attempt(AttemptMemory memory, int converged_in);
+
 /// The verdict on an attempt whose residuals after cycles 1, 2, ... are
 /// `history` (the latest last), given the tolerance and solver.max_cycles.
 [[nodiscard]] AttemptVerdict judge_attempt(std::span<const double> history, double tolerance,

@@ -32,8 +32,6 @@ bool is_mirror_symmetric(const ImpactConfig& c) {
 namespace {
 /// A step whose residual grows this far above its starting value has diverged.
 constexpr double kDivergenceFactor = 1e3;
-/// Retries of a diverged or stalled step (attempt_damping).
-constexpr int kMaxRetries = 3;
 /// Each retry after the first halves the damping factor once more.
 constexpr double kFurtherRetryDamping = 0.5;
 /// A step none of whose attempts converges is solved as two halves, and each
@@ -225,7 +223,8 @@ struct ImpactProblem::Impl {
   /// steps) are kept in it by advance_step.
   RunSummary summary;
   double last_residual = 0.0;
-  double start_residual = 0.0;  ///< residual of the step's initial approximation
+  AttemptMemory attempt_memory;  ///< where the next step's attempts begin
+  double start_residual = 0.0;   ///< residual of the step's initial approximation
 };
 
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
@@ -303,12 +302,14 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
   // the spike and the collapse of the entrapped pocket before lift-off), the
   // step starts again from the same initial approximation with more damping
   // (attempt_damping), up to kMaxRetries times.  If no attempt converges, the
-  // iterate with the smallest residual of all attempts is the result.
+  // iterate with the smallest residual of all attempts is the result.  The
+  // step begins with the attempt the steps before it needed (AttemptMemory).
   const Field start = solver->solution();
   const double start_delta = hierarchy.finest().delta();
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   BestIterate best;
-  for (int attempt = 0;; ++attempt) {
+  const int first_attempt = attempt_memory.first;
+  for (int attempt = first_attempt;; ++attempt) {
     const double damping = attempt_damping(attempt, cfg.retry_damping);
     hierarchy.set_damping(damping);
     // The second and third retries bring the deformation up to date before
@@ -333,8 +334,11 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
       if (attempt == kMaxRetries && best.P.size() == 0) throw;
     }
     ++tally.attempts;
-    if (attempt > 0) tally.retried = true;
-    if (converged) return {fine.force(solver->solution()), true};
+    if (attempt > first_attempt) tally.retried = true;
+    if (converged) {
+      attempt_memory = remember_attempt(attempt_memory, attempt);
+      return {fine.force(solver->solution()), true};
+    }
     if (attempt == kMaxRetries) break;
     solver->solution() = start;
     set_delta(start_delta);
@@ -601,6 +605,7 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   run.force_now = run.force_before = initial_force;
   level_spacing = dT;
   levels_done = 0;
+  attempt_memory = {};
   run.bounds = run_bounds(cfg, dT, summary.initial_elastic_energy);
 }
 
@@ -614,6 +619,7 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   run.force_before = s.force_before;
   run.had_pressure = s.had_pressure;
   summary = s.summary;
+  attempt_memory = s.attempts;
   solver->solution() = fold(s.P, grid);
   P_before = fold(s.P_before, grid);
   rhoH_now = fold(s.rhoH, grid);
@@ -690,8 +696,9 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
       // Full-grid fields, whatever grid the solver works on: a checkpoint
       // does not depend on solver.symmetry.
       state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure, summary,
-                             unfold(solver->solution(), grid), unfold(P_before, grid),
-                             unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
+                             attempt_memory, unfold(solver->solution(), grid),
+                             unfold(P_before, grid), unfold(rhoH_now, grid),
+                             unfold(rhoH_old, grid)});
     }
     if (stop) throw RunInterrupted(step, ball.T);
     if (end) {

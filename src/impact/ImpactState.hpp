@@ -4,6 +4,7 @@
 // (ImpactProblem::restart_from) continues from it.
 #include "dynamics/Newmark.hpp"
 #include "grid/Grid.hpp"
+#include "impact/AttemptPolicy.hpp"
 #include "impact/ImpactObserver.hpp"
 
 namespace ehlsim {
@@ -15,6 +16,7 @@ struct ImpactState {
   double force_before = 0.0;  ///< ... and at the one before (the force extrapolation)
   bool had_pressure = false;  ///< some step so far carried pressure (lift-off needs it)
   RunSummary summary;         ///< extremes, impulse and solver counters up to `step`
+  AttemptMemory attempts;     ///< where the next step's attempts begin
   Field P;                    ///< pressure at the last time level (finest grid)
   Field P_before;             ///< pressure at the level before (the extrapolated start)
   Field rhoH;                 ///< rho H at the last time level (the BDF2 history)

@@ -26,7 +26,8 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// Raised when the layout of the file changes; a reader accepts only its own.
 /// 2: summary_initial_elastic_energy (the energy bounds of a run).
 /// 3: checksum_crc32 over every stored value; the reader checks plausibility.
-constexpr int kFormatVersion = 3;
+/// 4: attempts_first and attempts_streak (impact/AttemptPolicy.hpp).
+constexpr int kFormatVersion = 4;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -60,6 +61,8 @@ void for_each_integer(State& s, Visit&& visit) {
   visit("summary_steps", s.summary.steps);
   visit("summary_unconverged_steps", s.summary.unconverged_steps);
   visit("summary_retried_steps", s.summary.retried_steps);
+  visit("attempts_first", s.attempts.first);
+  visit("attempts_streak", s.attempts.streak);
 }
 
 template <class State, class Visit>
@@ -302,6 +305,12 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
     if (count < 0 || count > s.step)
       in.fail(name, fmt::format("= {}: must be in [0, step = {}]", count, s.step));
   }
+  if (s.attempts.first < 0 || s.attempts.first > kMaxRetries)
+    in.fail("attempts_first",
+            fmt::format("= {}: must be in [0, {}]", s.attempts.first, kMaxRetries));
+  if (s.attempts.streak < 0 || s.attempts.streak >= kStepsBeforeLighterAttempt)
+    in.fail("attempts_streak", fmt::format("= {}: must be in [0, {}]", s.attempts.streak,
+                                           kStepsBeforeLighterAttempt - 1));
   check_fields_plausible(in, s);
 }
 
