@@ -980,6 +980,30 @@ TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
   EXPECT_THROW(problem.restart_from(wrong), std::invalid_argument);
 }
 
+TEST(ImpactRestart, ContinuesWithTheAttemptTheStepsBeforeNeeded) {
+  // M = 20, L = 20 on 65^2 retries steps of its rebound, so some step ends
+  // with a damped attempt as the next one's first (AttemptMemory).  A restart
+  // from there must begin where the uninterrupted run began: the memory is
+  // part of the state (without it the resumed steps take other iterates).
+  ImpactConfig cfg = moes_config(65, 20.0, 20.0);
+  std::vector<ImpactState> states;
+  const RunResult full = run_keeping_states(cfg, 1, states);
+  const auto damped = std::find_if(states.begin(), states.end(),
+                                   [](const ImpactState& s) { return s.attempts.first > 0; });
+  ASSERT_NE(damped, states.end()) << "no step began with a retry's damping";
+  const RunResult resumed = run_restarted(cfg, *damped);
+  ASSERT_EQ(resumed.records.size() + damped->step, full.records.size());
+  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
+    const StepRecord& a = full.records[damped->step + k];
+    const StepRecord& b = resumed.records[k];
+    ASSERT_EQ(a.attempts, b.attempts) << "step " << b.step;
+    ASSERT_EQ(a.Delta, b.Delta) << "step " << b.step;
+    ASSERT_EQ(a.residual, b.residual) << "step " << b.step;
+  }
+  EXPECT_EQ(resumed.summary.retried_steps, full.summary.retried_steps);
+  EXPECT_EQ(resumed.summary.rebound_speed, full.summary.rebound_speed);
+}
+
 TEST(ImpactHalvedSteps, AStepNoAttemptSolvesIsSolvedInHalvesOnTheSameTimeGrid) {
   // M = 1000, L = 20 on 65^2: the step to T = 0.8906, where the film first
   // carries the load (p_max 0.015 -> 0.12), converges in none of its four
