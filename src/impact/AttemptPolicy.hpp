@@ -40,7 +40,7 @@ inline constexpr int kMaxRetries = 3;
 /// run (the spike phase on fine grids, the pocket collapse) last many steps,
 /// and there a step needs the attempt its predecessor needed: on 1025^2 every
 /// first attempt of the rebound from T = 3.2 on diverged, and in the pocket
-/// collapse the first two attempts failed in most steps, the second one often
+/// collapse most steps failed three attempts, the one at damping 0.8 often
 /// only after 20 cycles.  So a step starts with the attempt that solved the
 /// step before, and after kStepsBeforeLighterAttempt steps solved that way it
 /// tries the next lighter one again (docs/performance.md: 1025^2, T = 4.10 to
