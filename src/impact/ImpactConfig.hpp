@@ -94,6 +94,10 @@ struct ImpactConfig : SolverSettings {
   /// units per step and no step was kept above the tolerance (docs/
   /// performance.md, "The local Newton step").
   int local_newton_half_width = 6;
+  /// The most windows of a local Newton step, each centred on one of the
+  /// largest residuals, no two overlapping, all solved at the same iterate;
+  /// 0: one per 32 points of the solver's grid side (ImpactProblem.cpp).
+  int local_newton_windows = 0;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
   bool use_symmetry = true;

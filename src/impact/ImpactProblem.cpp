@@ -48,6 +48,17 @@ double attempt_damping(int attempt, double retry_damping) {
   return retry_damping * std::pow(kFurtherRetryDamping, attempt - 1);
 }
 
+/// With solver.local_newton_windows = 0, a local Newton step solves one window
+/// per this many points of the solver's grid side: 16 on the quadrant of
+/// 1025^2, 8 on 513^2, 4 on 257^2.  The errors the cycles leave sit in one
+/// ring (the spike's foot in the rebound, the closing pocket before lift-off)
+/// whose length in meshes grows with the grid.  Measured per step on the
+/// quadrant: 1025^2 rebound (T = 3.20-3.26), 93.2 work units with one window,
+/// 57.1 with 15, 54.7 with 30; 513^2 whole run 38.4 with one, 34.0 with 8 and
+/// 34.2 with 16; 257^2 31.1 with one, 28.0 with 4, 28.5 with 30 (and 25 % more
+/// time: most windows were undone) (docs/performance.md).
+constexpr int kPointsPerLocalNewtonWindow = 32;
+
 /// The mesh size on which solver.switch_ratio applies as given: that of the
 /// default case, 257^2 on [-1.5, 1.5]^2, where it was tuned (3).
 constexpr double kSwitchReferenceMesh = 3.0 / 256.0;
@@ -179,6 +190,8 @@ struct ImpactProblem::Impl {
   bool iterate_time_step(const CycleRecord& attempt, const BallState& ball, BestIterate& best);
   /// One local Newton step on the finest grid, where its residual is largest.
   void newton_on_worst_window();
+  /// The windows of a local Newton step (solver.local_newton_windows).
+  [[nodiscard]] int local_newton_windows(const Grid2D& solver_grid) const;
   StepRecord make_record(int step, const BallState& ball, double force) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
@@ -426,9 +439,14 @@ bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const Ba
 void ImpactProblem::Impl::newton_on_worst_window() {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   Field& P = solver->solution();
-  const reynolds::Window window =
-      reynolds::window_at_largest_residual(fine, P, solver->rhs(), cfg.local_newton_half_width);
-  reynolds::local_newton_step(fine, P, solver->rhs(), window);
+  const std::vector<reynolds::Window> windows = reynolds::windows_at_largest_residuals(
+      fine, P, solver->rhs(), cfg.local_newton_half_width, local_newton_windows(fine.grid()));
+  reynolds::local_newton_step(fine, P, solver->rhs(), windows);
+}
+
+int ImpactProblem::Impl::local_newton_windows(const Grid2D& solver_grid) const {
+  if (cfg.local_newton_windows > 0) return cfg.local_newton_windows;
+  return std::max(1, solver_grid.n / kPointsPerLocalNewtonWindow);
 }
 
 void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 #include "reynolds/DenseSolve.hpp"
@@ -148,63 +149,136 @@ double largest_scaled_residual(const ReynoldsOperator& op, const Field& P, const
       largest = std::max(largest, std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j)));
   return largest;
 }
-}  // namespace
 
-Window window_at_largest_residual(ReynoldsOperator& op, const Field& P, const Field& f,
-                                  int half_width) {
-  op.update_coefficients(P);
+/// The pressure-scaled residual |r| / diagonal at every interior point, 0 on
+/// the boundary.
+Field scaled_residuals(const ReynoldsOperator& op, const Field& P, const Field& f) {
   const Grid2D& grid = op.grid();
   const int first = grid.first_interior();
-  double largest = -1.0;
-  int ic = first, jc = first;
-  for (int j = first; j < grid.n - 1; ++j) {
-    for (int i = first; i < grid.n - 1; ++i) {
-      const double scaled = std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j));
-      if (scaled > largest) largest = scaled, ic = i, jc = j;
-    }
-  }
-  return {std::max(first, ic - half_width), std::min(grid.n - 2, ic + half_width),
-          std::max(first, jc - half_width), std::min(grid.n - 2, jc + half_width)};
+  Field scaled(grid);
+#pragma omp parallel for schedule(static) if (worth_threads(grid))
+  for (int j = first; j < grid.n - 1; ++j)
+    for (int i = first; i < grid.n - 1; ++i)
+      scaled(i, j) = std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j));
+  return scaled;
 }
 
-LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f,
-                                  const Window& window) {
-  op.update_coefficients(P);
+/// A window's Newton step, solved at the P it was linearised at.
+struct WindowSolve {
+  std::vector<double> start;      ///< the window's pressures before the step
+  std::vector<double> change;     ///< dP
+  int held = 0;                   ///< unknowns held at P = 0
+  double largest_residual = 0.0;  ///< before the step
+};
+
+WindowSolve solve_window(const ReynoldsOperator& op, const Field& P, const Field& f,
+                         const Window& window) {
   const WindowIndex index{window, op.grid().mirrored};
   const int m = window.size();
-  std::vector<double> J(static_cast<std::size_t>(m) * m, 0.0), r(m), p(m);
+  std::vector<double> J(static_cast<std::size_t>(m) * m, 0.0), r(m);
+  WindowSolve solve{std::vector<double>(m), {}, 0, largest_scaled_residual(op, P, f, window)};
   // held: NaN for a free unknown, else the change it is held to.
   std::vector<double> held(m, std::numeric_limits<double>::quiet_NaN());
-  LocalNewtonStep step{m, 0};
   for (int j = window.j0; j <= window.j1; ++j) {
     for (int i = window.i0; i <= window.i1; ++i) {
       const int q = index(i, j);
-      p[q] = P(i, j);
+      solve.start[q] = P(i, j);
       r[q] = f(i, j) - op.apply_at(P, i, j);
       // A cavitated point whose residual would lower the pressure stays at 0.
       if (P(i, j) <= 0.0 && r[q] >= 0.0) held[q] = 0.0;
       add_jacobian_row(op, P, index, i, j, J);
     }
   }
-  const double before = largest_scaled_residual(op, P, f, window);
-  const std::vector<double> change = solve_projected(J, r, held, p);
+  solve.change = solve_projected(J, r, held, solve.start);
+  solve.held = static_cast<int>(
+      std::count_if(held.begin(), held.end(), [](double v) { return !std::isnan(v); }));
+  return solve;
+}
+
+/// Writes start + change (at least 0) into the window's points of P.
+void put_window(const Window& window, bool mirrored, const std::vector<double>& start,
+                const std::vector<double>* change, Field& P) {
+  const WindowIndex index{window, mirrored};
   for (int j = window.j0; j <= window.j1; ++j) {
     for (int i = window.i0; i <= window.i1; ++i) {
       const int q = index(i, j);
-      if (!std::isnan(held[q])) ++step.held;
-      P(i, j) = std::max(0.0, P(i, j) + change[q]);
+      P(i, j) = change ? std::max(0.0, start[q] + (*change)[q]) : start[q];
     }
   }
+}
+
+/// Whether the windows of half-width w centred at a and b share a point.
+bool overlap(std::array<int, 2> a, std::array<int, 2> b, int w) {
+  return std::abs(a[0] - b[0]) <= 2 * w && std::abs(a[1] - b[1]) <= 2 * w;
+}
+}  // namespace
+
+std::vector<Window> windows_at_largest_residuals(ReynoldsOperator& op, const Field& P,
+                                                 const Field& f, int half_width, int count) {
+  op.update_coefficients(P);
+  const Grid2D& grid = op.grid();
+  const int first = grid.first_interior();
+  const Field scaled = scaled_residuals(op, P, f);
+  const double floor =
+      kWindowResidualFraction * *std::max_element(scaled.span().begin(), scaled.span().end());
+  // (-residual, j, i): largest first, ties in grid order, the same on every run.
+  std::vector<std::tuple<double, int, int>> candidates;
+  for (int j = first; j < grid.n - 1; ++j)
+    for (int i = first; i < grid.n - 1; ++i)
+      if (scaled(i, j) >= floor) candidates.emplace_back(-scaled(i, j), j, i);
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<std::array<int, 2>> centres;
+  std::vector<Window> windows;
+  for (const auto& [residual, jc, ic] : candidates) {
+    if (static_cast<int>(windows.size()) >= count) break;
+    const std::array<int, 2> centre{ic, jc};
+    if (std::any_of(centres.begin(), centres.end(),
+                    [&](const auto& c) { return overlap(c, centre, half_width); }))
+      continue;
+    centres.push_back(centre);
+    const auto [i, j] = centre;
+    windows.push_back({std::max(first, i - half_width), std::min(grid.n - 2, i + half_width),
+                       std::max(first, j - half_width), std::min(grid.n - 2, j + half_width)});
+  }
+  return windows;
+}
+
+LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f,
+                                  const std::vector<Window>& windows) {
+  op.update_coefficients(P);
+  const int count = static_cast<int>(windows.size());
+  std::vector<WindowSolve> solves(count);
+  bool singular = false;
+  // Each window's system is independent of the others' (all at the same P).
+#pragma omp parallel for schedule(dynamic, 1) if (count > 1)
+  for (int w = 0; w < count; ++w) {
+    try {
+      solves[w] = solve_window(op, P, f, windows[w]);
+    } catch (const std::exception&) {  // no exception may leave a parallel region
+#pragma omp atomic write
+      singular = true;
+    }
+  }
+  if (singular) throw std::runtime_error("local Newton step: a window's Jacobian is singular");
+  const bool mirrored = op.grid().mirrored;
+  LocalNewtonStep step;
+  for (int w = 0; w < count; ++w) {
+    put_window(windows[w], mirrored, solves[w].start, &solves[w].change, P);
+    step.unknowns += windows[w].size();
+    step.held += solves[w].held;
+  }
+  step.windows = count;
   op.update_coefficients(P);
   // Far from the solution (a rough iterate, a coefficient that jumps by
-  // orders between neighbours) the linearisation can overshoot: a step that
-  // leaves the window worse than it was is undone.
-  if (largest_scaled_residual(op, P, f, window) > before) {
-    for (int j = window.j0; j <= window.j1; ++j)
-      for (int i = window.i0; i <= window.i1; ++i) P(i, j) = p[index(i, j)];
-    op.update_coefficients(P);
-    step.accepted = false;
+  // orders between neighbours) the linearisation can overshoot: a window
+  // left worse than it was is put back.
+  for (int w = 0; w < count; ++w) {
+    if (largest_scaled_residual(op, P, f, windows[w]) > solves[w].largest_residual) {
+      put_window(windows[w], mirrored, solves[w].start, nullptr, P);
+      ++step.undone;
+    }
   }
+  if (step.undone > 0) op.update_coefficients(P);
   return step;
 }
 
