@@ -1300,6 +1300,19 @@ TEST(ImpactSymmetry, QuadrantAndFullDomainAgreeToTheToleranceWithTheLocalNewtonS
          std::abs(quadrant.summary.rebound_speed - full.summary.rebound_speed), 3);
 }
 
+// Each window of a local Newton step lowers its own residual, but together,
+// with the Delta of their force, they can leave the grid worse: such a step is
+// taken back.  Without that, M = 20, L = 20 on 129^2 with two windows lost the
+// pocket collapse at T = 3.773 (every attempt stalled at 1e-2: exit 1).
+TEST(ImpactLocalNewton, AStepThatRaisesTheResidualIsTakenBack) {
+  ImpactConfig cfg = moes_config(129, 20.0, 20.0);
+  cfg.local_newton_windows = 2;
+  const RunResult run = run_case(cfg);
+  ASSERT_RAN(run);
+  EXPECT_TRUE(run.summary.lifted_off);
+  EXPECT_EQ(run.summary.unconverged_steps, 0);
+}
+
 // ---------------------------------------------------------------------------
 // When an attempt of a time step stops cycling (impact/AttemptPolicy.hpp).
 
