@@ -35,6 +35,45 @@ struct WindowIndex {
   }
 };
 
+/// dH(a, b) / dP(q) for every unknown q of a window, for the films its rows
+/// hold: the window's points, their four neighbours and the transport taps
+/// upstream.  Each film enters up to seven rows, so the kernel sums of
+/// ReynoldsOperator::film_slope are taken once per film, not once per row
+/// (the same values, so the same Jacobian to the bit).
+class FilmSlopes {
+ public:
+  FilmSlopes(const ReynoldsOperator& op, const WindowIndex& index)
+      : op_(op),
+        index_(index),
+        i0_(index.window.i0 - (kTransportTaps - 1)),
+        j0_(index.window.j0 - 1),
+        width_(index.window.width() + kTransportTaps),
+        height_(index.window.height() + 2),
+        unknowns_(index.window.size()),
+        known_(static_cast<std::size_t>(width_) * height_, 0) {
+    slopes_.resize(known_.size() * static_cast<std::size_t>(unknowns_));
+  }
+
+  /// dH(a, b) / dP(q) for the unknowns q in window order.
+  [[nodiscard]] const double* of(int a, int b) {
+    const auto cell = static_cast<std::size_t>((b - j0_) * width_ + (a - i0_));
+    double* row = slopes_.data() + cell * static_cast<std::size_t>(unknowns_);
+    if (known_[cell]) return row;
+    const Window& w = index_.window;
+    for (int l = w.j0; l <= w.j1; ++l)
+      for (int k = w.i0; k <= w.i1; ++k) row[index_(k, l)] = op_.film_slope(a, b, k, l);
+    known_[cell] = 1;
+    return row;
+  }
+
+ private:
+  const ReynoldsOperator& op_;
+  const WindowIndex& index_;
+  int i0_, j0_, width_, height_, unknowns_;
+  std::vector<char> known_;
+  std::vector<double> slopes_;
+};
+
 /// A point whose film enters a row of N, and the row's derivative with
 /// respect to that film.
 struct FilmTerm {
@@ -47,8 +86,8 @@ struct FilmTerm {
 /// flow stencil, and the films of the point, its four neighbours (through xi
 /// on the faces) and its transport taps, each of which follows every pressure
 /// through the elastic kernel.
-void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIndex& index, int i,
-                      int j, std::vector<double>& J) {
+void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIndex& index,
+                      FilmSlopes& film_slopes, int i, int j, std::vector<double>& J) {
   const int m = index.window.size();
   const int row = index(i, j);
   const auto entry = [&](int q) -> double& { return J[static_cast<std::size_t>(q) * m + row]; };
@@ -97,14 +136,12 @@ void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIn
     add_film(i - t, j, -taps.weight[t] * op.density()(i - t, j));
   }
   if (!op.elastic()) return;
-  const Window& w = index.window;
-  for (int l = w.j0; l <= w.j1; ++l) {
-    for (int k = w.i0; k <= w.i1; ++k) {
-      double sum = 0.0;
-      for (int t = 0; t < film_count; ++t)
-        sum += films[t].weight * op.film_slope(films[t].i, films[t].j, k, l);
-      entry(index(k, l)) += sum;
-    }
+  std::array<const double*, 7> slopes{};
+  for (int t = 0; t < film_count; ++t) slopes[t] = film_slopes.of(films[t].i, films[t].j);
+  for (int q = 0; q < m; ++q) {
+    double sum = 0.0;
+    for (int t = 0; t < film_count; ++t) sum += films[t].weight * slopes[t][q];
+    entry(q) += sum;
   }
 }
 
@@ -179,6 +216,7 @@ WindowSolve solve_window(const ReynoldsOperator& op, const Field& P, const Field
   WindowSolve solve{std::vector<double>(m), {}, 0, largest_scaled_residual(op, P, f, window)};
   // held: NaN for a free unknown, else the change it is held to.
   std::vector<double> held(m, std::numeric_limits<double>::quiet_NaN());
+  FilmSlopes film_slopes(op, index);
   for (int j = window.j0; j <= window.j1; ++j) {
     for (int i = window.i0; i <= window.i1; ++i) {
       const int q = index(i, j);
@@ -186,7 +224,7 @@ WindowSolve solve_window(const ReynoldsOperator& op, const Field& P, const Field
       r[q] = f(i, j) - op.apply_at(P, i, j);
       // A cavitated point whose residual would lower the pressure stays at 0.
       if (P(i, j) <= 0.0 && r[q] >= 0.0) held[q] = 0.0;
-      add_jacobian_row(op, P, index, i, j, J);
+      add_jacobian_row(op, P, index, film_slopes, i, j, J);
     }
   }
   solve.change = solve_projected(J, r, held, solve.start);
