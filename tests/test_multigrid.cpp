@@ -1,9 +1,11 @@
 // The generic multigrid pieces on their own: transfers and the FAS solver on a
 // model nonlinear problem with a known solution.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include "multigrid/Fas.hpp"
 #include "multigrid/Transfer.hpp"
@@ -52,6 +54,40 @@ TEST(Transfer, FullWeightingPreservesSmoothFieldsToSecondOrder) {
     for (int I = 1; I < cg.n - 1; ++I)
       // Full weighting of a smooth function equals it up to (h^2 / 4) Laplacian.
       EXPECT_NEAR(coarse(I, J), fn(cg.x(I), cg.y(J)), 0.6 * h * h);
+}
+
+// The transfers and the element-wise field loops run on the threads on grids
+// of 64^2 points and more; each element is written by one thread, so 1, 2 and
+// 3 threads must give the same bits (docs/usage.md, "Reproducibility").
+TEST(Transfer, ThreadedTransfersGiveTheBitsOfOneThread) {
+  for (const bool mirrored : {false, true}) {
+    const Grid2D fine(257, 1.0, mirrored);
+    ASSERT_TRUE(worth_threads(fine.coarser()));
+    const auto fn = [](double x, double y) { return std::exp(-3.0 * x * x) * std::cos(5.0 * y); };
+    const Field u = sample(fine, fn);
+    const int threads_before = omp_get_max_threads();
+    std::vector<Field> results;
+    for (const int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      Field injected(fine.coarser()), restricted(fine.coarser()), prolonged(fine);
+      inject(u, injected);
+      restrict_full_weighting(u, restricted);
+      copy_into(u, prolonged);
+      prolong_bilinear_add(restricted, prolonged);
+      Field change(fine);
+      difference(prolonged, u, change);
+      add_to(change, change);
+      for (const Field* f : {&injected, &restricted, &prolonged, &change}) results.push_back(*f);
+    }
+    omp_set_num_threads(threads_before);
+    for (std::size_t r = 4; r < results.size(); ++r)
+      EXPECT_TRUE(equal_values(results[r], results[r % 4]))
+          << "result " << r << ", mirrored " << mirrored;
+    // equal_values sees a single differing element, wherever it is.
+    Field other = results[2];
+    other[other.size() - 1] += 1.0;
+    EXPECT_FALSE(equal_values(other, results[2]));
+  }
 }
 
 /// Model problem: -Laplace(u) + u^3 = f on [-1, 1]^2, u = 0 on the boundary,

@@ -81,10 +81,13 @@ struct Grid2D {
 /// of the samples of a 257^2 run when every level ran threaded).
 inline constexpr std::size_t kMinPointsForThreads = 64 * 64;
 
-/// True when the point loops of `grid` are worth sharing between threads.
-[[nodiscard]] inline bool worth_threads(const Grid2D& grid) {
-  return grid.size() >= kMinPointsForThreads;
+/// True when a point loop over `points` points is worth sharing between threads.
+[[nodiscard]] inline bool worth_threads(std::size_t points) {
+  return points >= kMinPointsForThreads;
 }
+
+/// True when the point loops of `grid` are worth sharing between threads.
+[[nodiscard]] inline bool worth_threads(const Grid2D& grid) { return worth_threads(grid.size()); }
 
 /// The sum of value(i, j) over the interior points of the full grid that
 /// `grid` stands for: on a mirrored grid each point counts once per image (1
@@ -147,6 +150,44 @@ class Field {
   int first_ = 1;
   std::vector<double> data_;
 };
+
+/// op(k) for every element k of a field of `size` elements, shared between
+/// the threads on large grids.  Each element is written by one thread, so the
+/// bits do not depend on the number of threads.
+template <class Op>
+void for_each_element(std::size_t size, Op&& op) {
+#pragma omp parallel for schedule(static) if (worth_threads(size))
+  for (std::size_t k = 0; k < size; ++k) op(k);
+}
+
+/// u = value everywhere.
+inline void fill(Field& u, double value) {
+  for_each_element(u.size(), [&](std::size_t k) { u[k] = value; });
+}
+
+/// u += v.
+inline void add_to(const Field& v, Field& u) {
+  for_each_element(u.size(), [&](std::size_t k) { u[k] += v[k]; });
+}
+
+/// u = v (u has v's size).
+inline void copy_into(const Field& v, Field& u) {
+  for_each_element(u.size(), [&](std::size_t k) { u[k] = v[k]; });
+}
+
+/// Whether a and b (of one size) hold the same values.
+[[nodiscard]] inline bool equal_values(const Field& a, const Field& b) {
+  bool equal = true;
+  const std::size_t size = a.size();
+#pragma omp parallel for schedule(static) reduction(&& : equal) if (worth_threads(size))
+  for (std::size_t k = 0; k < size; ++k) equal = equal && a[k] == b[k];
+  return equal;
+}
+
+/// out = a - b.
+inline void difference(const Field& a, const Field& b, Field& out) {
+  for_each_element(out.size(), [&](std::size_t k) { out[k] = a[k] - b[k]; });
+}
 
 /// The full-grid field of a field on a mirrored grid (P(-i, j) = P(i, j) ...);
 /// a copy of `f` when the grid is full.

@@ -40,17 +40,16 @@ void FasSolver::cycle_on(int l) {
   inject(u_[l], u_[l + 1]);
   restrict_full_weighting(r_[l], f_[l + 1]);
   coarse.apply(u_[l + 1], scratch_[l + 1]);
-  for (std::size_t k = 0; k < f_[l + 1].size(); ++k) f_[l + 1][k] += scratch_[l + 1][k];
+  add_to(scratch_[l + 1], f_[l + 1]);
   u_coarse_old_[l + 1] = u_[l + 1];
 
   for (int visit = 0; visit < settings_.cycle_index; ++visit) cycle_on(l + 1);
 
   // Correction: u += P (u_c - I u).
   Field& correction = scratch_[l + 1];
-  for (std::size_t k = 0; k < correction.size(); ++k)
-    correction[k] = u_[l + 1][k] - u_coarse_old_[l + 1][k];
+  difference(u_[l + 1], u_coarse_old_[l + 1], correction);
   Field& fine_correction = r_[l];  // the residual is not needed any more
-  fine_correction.fill(0.0);
+  fill(fine_correction, 0.0);
   prolong_bilinear_add(correction, fine_correction);
   if (safeguard) saved_[l] = u_[l];
   level.correct(u_[l], fine_correction);
@@ -87,7 +86,7 @@ void FasSolver::full_multigrid() {
 }
 
 void FasLevel::correct(Field& u, const Field& correction) {
-  for (std::size_t k = 0; k < u.size(); ++k) u[k] += correction[k];
+  add_to(correction, u);
   project(u);
 }
 

@@ -7,6 +7,7 @@ namespace ehlsim::multigrid {
 void inject(const Field& fine, Field& coarse) {
   const int nc = coarse.n();
   assert(fine.n() == 2 * (nc - 1) + 1);
+#pragma omp parallel for schedule(static) if (worth_threads(coarse.size()))
   for (int J = 0; J < nc; ++J)
     for (int I = 0; I < nc; ++I) coarse(I, J) = fine(2 * I, 2 * J);
 }
@@ -18,6 +19,7 @@ void restrict_full_weighting(const Field& fine, Field& coarse) {
   // On a mirrored grid the interior starts on the axis, where the stencil
   // reads the mirror images across it.
   const int first = coarse.first_interior();
+#pragma omp parallel for schedule(static) if (worth_threads(coarse.size()))
   for (int J = first; J < nc - 1; ++J) {
     for (int I = first; I < nc - 1; ++I) {
       const int i = 2 * I, j = 2 * J;
@@ -33,6 +35,7 @@ void restrict_full_weighting(const Field& fine, Field& coarse) {
 void prolong_bilinear_add(const Field& coarse, Field& fine) {
   const int nf = fine.n();
   assert(nf == 2 * (coarse.n() - 1) + 1);
+#pragma omp parallel for schedule(static) if (worth_threads(fine.size()))
   for (int j = 0; j < nf; ++j) {
     const int J = j / 2;
     const bool jodd = (j % 2) != 0;

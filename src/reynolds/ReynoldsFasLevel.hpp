@@ -24,8 +24,8 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
   void apply(const Field& u, Field& Nu) override { op_.apply(u, Nu); }
   void residual(const Field& u, const Field& f, Field& r) override {
     op_.apply(u, r);
-    for (std::size_t k = 0; k < r.size(); ++k)
-      r[k] = reynolds::constrained_residual(u[k], f[k] - r[k]);
+    for_each_element(
+        r.size(), [&](std::size_t k) { r[k] = reynolds::constrained_residual(u[k], f[k] - r[k]); });
     zero_boundary(r);
   }
   /// The coarse-grid correction is applied only inside the pressurized region
@@ -37,9 +37,12 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
     // the coarse grid saw it.
     const int n = u.n();
     const int first = u.first_interior();
+    const bool threaded = worth_threads(u.size());
+#pragma omp parallel for schedule(static) if (threaded)
     for (int j = first; j < n - 1; ++j)
       for (int i = first; i < n - 1; ++i)
         mask_(i, j) = reynolds::is_pressurized(u, i, j) ? 1.0 : 0.0;
+#pragma omp parallel for schedule(static) if (threaded)
     for (int j = first; j < n - 1; ++j)
       for (int i = first; i < n - 1; ++i)
         if (mask_(i, j) != 0.0) u(i, j) = std::max(0.0, u(i, j) + correction(i, j));
@@ -50,7 +53,7 @@ class ReynoldsFasLevel final : public multigrid::FasLevel {
   double norm(const Field& r) override { return op_.pressure_scaled_norm(r); }
   void relax(Field& u, const Field& f, int sweeps) override { smoother_.relax(u, f, sweeps); }
   void project(Field& u) override {
-    for (std::size_t k = 0; k < u.size(); ++k) u[k] = std::max(u[k], 0.0);
+    for_each_element(u.size(), [&](std::size_t k) { u[k] = std::max(u[k], 0.0); });
     zero_boundary(u);
   }
 
