@@ -118,6 +118,15 @@ template <class Value>
   return (m & (m - 1)) == 0;
 }
 
+/// op(k) for every element k of a field of `size` elements, shared between
+/// the threads on large grids.  Each element is written by one thread, so the
+/// bits do not depend on the number of threads.
+template <class Op>
+void for_each_element(std::size_t size, Op&& op) {
+#pragma omp parallel for schedule(static) if (worth_threads(size))
+  for (std::size_t k = 0; k < size; ++k) op(k);
+}
+
 /// A scalar field on a Grid2D (row-major, j * n + i).  Negative indices read
 /// and write the mirror image (|i|, |j|): on a mirrored grid that is the value
 /// across the symmetry axis; a full grid never uses them.
@@ -139,7 +148,9 @@ class Field {
   [[nodiscard]] const double* data() const { return data_.data(); }
   [[nodiscard]] std::span<double> span() { return data_; }
   [[nodiscard]] std::span<const double> span() const { return data_; }
-  void fill(double value) { std::fill(data_.begin(), data_.end(), value); }
+  void fill(double value) {
+    for_each_element(data_.size(), [&](std::size_t k) { data_[k] = value; });
+  }
 
  private:
   [[nodiscard]] std::size_t at(int i, int j) const {
@@ -150,20 +161,6 @@ class Field {
   int first_ = 1;
   std::vector<double> data_;
 };
-
-/// op(k) for every element k of a field of `size` elements, shared between
-/// the threads on large grids.  Each element is written by one thread, so the
-/// bits do not depend on the number of threads.
-template <class Op>
-void for_each_element(std::size_t size, Op&& op) {
-#pragma omp parallel for schedule(static) if (worth_threads(size))
-  for (std::size_t k = 0; k < size; ++k) op(k);
-}
-
-/// u = value everywhere.
-inline void fill(Field& u, double value) {
-  for_each_element(u.size(), [&](std::size_t k) { u[k] = value; });
-}
 
 /// u += v.
 inline void add_to(const Field& v, Field& u) {

@@ -49,7 +49,7 @@ void FasSolver::cycle_on(int l) {
   Field& correction = scratch_[l + 1];
   difference(u_[l + 1], u_coarse_old_[l + 1], correction);
   Field& fine_correction = r_[l];  // the residual is not needed any more
-  fill(fine_correction, 0.0);
+  fine_correction.fill(0.0);
   prolong_bilinear_add(correction, fine_correction);
   if (safeguard) saved_[l] = u_[l];
   level.correct(u_[l], fine_correction);

@@ -116,7 +116,7 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     } else {
       op_.update_coefficients_keeping_deformation(P);
     }
-    fill(jacobi_change_, 0.0);
+    jacobi_change_.fill(0.0);
     long colour_jac = 0, coupled = 0, distributive = 0;
     const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
 #pragma omp parallel reduction(+ : gs, colour_jac, coupled, distributive) if (threaded)

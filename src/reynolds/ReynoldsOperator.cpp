@@ -148,7 +148,7 @@ void ReynoldsOperator::apply(const Field& P, Field& N) {
   update_coefficients(P);
   const int n = grid_.n;
   const int first = grid_.first_interior();
-  fill(N, 0.0);
+  N.fill(0.0);
   const bool threaded = worth_threads(grid_);
 #pragma omp parallel for schedule(static) if (threaded)
   for (int j = first; j < n - 1; ++j)
