@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -332,8 +333,8 @@ struct FullImpl final : FftDeformation::Impl {
 };
 
 /// DCT-I (FFTW's REDFT00, unnormalised: Y_k = x_0 + (-1)^k x_M +
-/// 2 sum_{j=1}^{M-1} x_j cos(pi j k / M)) of `count` contiguous vectors of
-/// M + 1 values, x[v * dist + j], in place, through one real DFT of size M
+/// 2 sum_{j=1}^{M-1} x_j cos(pi j k / M)) of up to kChunk contiguous vectors
+/// of M + 1 values, x[v * dist + j], in place, through one real DFT of size M
 /// per vector.  FFTW's own REDFT00 pads to a real DFT of size 2M and took
 /// 3.4 times as long as a real DFT of size M (M = 256, 257 vectors).
 ///
@@ -345,17 +346,24 @@ struct FullImpl final : FftDeformation::Impl {
 /// outputs follow from Y_1 = sum b_j cos(pi j / M) by that recurrence.  The
 /// real DFT writes U straight into the vector (dist >= M + 2: U has M/2 + 1
 /// complex values), where Re U_q already sits at x_{2q} and Im U_q at x_{2q+1}.
+///
+/// A few vectors at a time: their values, u and the spectrum (about 130 kB
+/// for M = 1024) stay in the L2 cache from the preparation through the real
+/// DFT to the recurrence, and the caller's work on the chunk before and after
+/// (copies, transposes, the kernel product) finds them there too.  Whole
+/// batches of 64-128 vectors went through memory at every pass: the passes
+/// around FFTW then took more time than FFTW itself (docs/performance.md).
 class DctI {
  public:
+  /// Vectors per call at most.
+  static constexpr int kChunk = 8;
   /// Row stride a vector needs.
   static int stride_for(int M) { return M + 2; }
 
-  DctI(int M, int count, int dist, unsigned flags)
+  DctI(int M, int dist, unsigned flags)
       : M_(M),
-        count_(count),
         dist_(dist),
-        u_(fftw_buffer<double>(static_cast<std::size_t>(M) * count)),
-        y1_(static_cast<std::size_t>(count)),
+        u_(fftw_buffer<double>(static_cast<std::size_t>(M) * kChunk)),
         sin_(static_cast<std::size_t>(M)),
         cos_(static_cast<std::size_t>(M)) {
     if (dist < stride_for(M)) throw std::invalid_argument("DctI: rows too short for the spectrum");
@@ -364,31 +372,36 @@ class DctI {
       sin_[j] = std::sin(t);
       cos_[j] = std::cos(t);
     }
-    // The plan is made for one array of vectors: apply() must pass arrays with
-    // the same alignment (fftw_malloc'ed, dist even).
-    auto probe = fftw_buffer<double>(static_cast<std::size_t>(dist) * count);
+    // The plans are made for one array of vectors: apply() must pass arrays
+    // with the same alignment (fftw_malloc'ed, dist even).  One plan per count
+    // of vectors, so that a vector's arithmetic depends only on the count of
+    // its chunk, which the grid fixes.
+    auto probe = fftw_buffer<double>(static_cast<std::size_t>(dist) * kChunk);
     const int out_dist = dist / 2;
-    plan_ = make_plan([&] {
-      return fftw_plan_many_dft_r2c(1, &M_, count, u_.get(), nullptr, 1, M,
-                                    reinterpret_cast<fftw_complex*>(probe.get()), nullptr, 1,
-                                    out_dist, flags | FFTW_DESTROY_INPUT);
-    });
+    for (int count = 1; count <= kChunk; ++count)
+      plans_.push_back(make_plan([&] {
+        return fftw_plan_many_dft_r2c(1, &M_, count, u_.get(), nullptr, 1, M,
+                                      reinterpret_cast<fftw_complex*>(probe.get()), nullptr, 1,
+                                      out_dist, flags | FFTW_DESTROY_INPUT);
+      }));
   }
 
-  void apply(double* x) {
-    for (int v = 0; v < count_; ++v) prepare(x + static_cast<std::size_t>(v) * dist_, v);
-    fftw_execute_dft_r2c(plan_.get(), u_.get(), reinterpret_cast<fftw_complex*>(x));
+  /// Transforms the `count` (<= kChunk) vectors at x.
+  void apply(double* x, int count) {
+    std::array<double, kChunk> y1{};
+    for (int v = 0; v < count; ++v) y1[v] = prepare(x + static_cast<std::size_t>(v) * dist_, v);
+    fftw_execute_dft_r2c(plans_[count - 1].get(), u_.get(), reinterpret_cast<fftw_complex*>(x));
     // x_{2q} = Re U_q is in place; x_{2q+1} = x_{2q-1} + 2 Im U_q, a chain of
     // dependent additions along each vector: four vectors at a time, so that
     // their chains overlap.
     const auto row = [&](int v) { return x + static_cast<std::size_t>(v) * dist_; };
     int v = 0;
-    for (; v + 4 <= count_; v += 4) {
+    for (; v + 4 <= count; v += 4) {
       double* __restrict a = row(v);
       double* __restrict b = row(v + 1);
       double* __restrict c = row(v + 2);
       double* __restrict d = row(v + 3);
-      double ra = y1_[v], rb = y1_[v + 1], rc = y1_[v + 2], rd = y1_[v + 3];
+      double ra = y1[v], rb = y1[v + 1], rc = y1[v + 2], rd = y1[v + 3];
       a[1] = ra, b[1] = rb, c[1] = rc, d[1] = rd;
       for (int j = 3; j < M_; j += 2) {
         a[j] = ra = ra + 2.0 * a[j];
@@ -397,17 +410,17 @@ class DctI {
         d[j] = rd = rd + 2.0 * d[j];
       }
     }
-    for (; v < count_; ++v) {
+    for (; v < count; ++v) {
       double* __restrict a = row(v);
-      double ra = y1_[v];
+      double ra = y1[v];
       a[1] = ra;
       for (int j = 3; j < M_; j += 2) a[j] = ra = ra + 2.0 * a[j];
     }
   }
 
  private:
-  /// u and Y_1 of the vector x.
-  void prepare(const double* __restrict xv, int v) {
+  /// Writes u of the vector x into slot v; returns its Y_1.
+  double prepare(const double* __restrict xv, int v) {
     double* __restrict uv = u_.get() + static_cast<std::size_t>(v) * M_;
     const double* __restrict sj = sin_.data();
     uv[0] = xv[0] + xv[M_];
@@ -422,31 +435,22 @@ class DctI {
       s3 += cos_[j + 3] * (xv[j + 3] - xv[M_ - j - 3]);
     }
     for (; j < M_; ++j) s0 += cos_[j] * (xv[j] - xv[M_ - j]);
-    y1_[v] = ((s0 + s1) + s2) + s3;
+    return ((s0 + s1) + s2) + s3;
   }
 
-  int M_, count_, dist_;
+  int M_, dist_;
   FftwBuffer<double> u_;
-  std::vector<double> y1_, sin_, cos_;
-  Plan plan_;
+  std::vector<double> sin_, cos_;
+  std::vector<Plan> plans_;  // plans_[c - 1]: c vectors
 };
 
-/// Tile edge of the blocked transposes (a 16 x 16 tile of doubles is 2 kB:
-/// both sides of it stay in the L1 cache).
-constexpr int kTransposeTile = 16;
-
 /// to[c * to_dist + r] = from[r * from_dist + c] for r < rows, c < cols.
-void transpose(const double* from, int from_dist, double* to, int to_dist, int rows, int cols) {
-  for (int r0 = 0; r0 < rows; r0 += kTransposeTile) {
-    const int r1 = std::min(rows, r0 + kTransposeTile);
-    for (int c0 = 0; c0 < cols; c0 += kTransposeTile) {
-      const int c1 = std::min(cols, c0 + kTransposeTile);
-      for (int r = r0; r < r1; ++r)
-        for (int c = c0; c < c1; ++c)
-          to[static_cast<std::size_t>(c) * to_dist + r] =
-              from[static_cast<std::size_t>(r) * from_dist + c];
-    }
-  }
+void transpose(const double* __restrict from, int from_dist, double* __restrict to, int to_dist,
+               int rows, int cols) {
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+      to[static_cast<std::size_t>(c) * to_dist + r] =
+          from[static_cast<std::size_t>(r) * from_dist + c];
 }
 
 /// The mirrored grid (the quadrant of a pressure even in X and Y).  The
@@ -455,83 +459,95 @@ void transpose(const double* from, int from_dist, double* to, int to_dist, int r
 /// So W = DCT-I(Khat . DCT-I(P)) on the (m/2 + 1)^2 array, of which the
 /// quadrant holds n rows and columns of data: the row transforms of the
 /// forward and the inverse pass run on those n rows only.  The transforms
-/// along Y run on transposed strips, so that every transform reads
-/// contiguous memory.  About a quarter of the full grid's work.
+/// along Y run on a few columns at a time, transposed into a small strip, so
+/// that every transform reads contiguous memory.  About a quarter of the
+/// full grid's work.
 struct MirroredImpl final : FftDeformation::Impl {
-  int n;                            // quadrant points per side
-  int mc;                           // m/2 + 1 values per side of the even arrays
-  int dist;                         // row stride of the work arrays (room for the DCT's spectrum)
-  int parts;                        // batches, as in FullImpl
-  FftwBuffer<double> rows_data;     // n rows: the transforms along X
-  FftwBuffer<double> columns_data;  // mc rows: the transforms along Y, transposed
-  FftwBuffer<double> kernel_hat;    // mc rows of mc (symmetric: K(a, b) = K(b, a))
-  std::vector<DctI> rows, columns;  // one per batch
+  /// One batch's transform and its strip of transposed columns.
+  struct Batch {
+    DctI dct;
+    FftwBuffer<double> strip;  // DctI::kChunk rows of dist
+  };
+  int n;                          // quadrant points per side
+  int mc;                         // m/2 + 1 values per side of the even arrays
+  int dist;                       // row stride of the work arrays (room for the DCT's spectrum)
+  int parts;                      // batches, as in FullImpl
+  FftwBuffer<double> data;        // n rows: the transforms along X
+  FftwBuffer<double> kernel_hat;  // mc rows of mc (symmetric: K(a, b) = K(b, a))
+  std::vector<Batch> batches;
 
   MirroredImpl(const KernelTable& K, FftPlanning planning)
       : n((K.n() + 1) / 2),
         mc(padded_period(2 * (K.n() - 1)) / 2 + 1),
         dist(DctI::stride_for(mc - 1)),
         parts(batch_count(K.n())),
-        rows_data(fftw_buffer<double>(static_cast<std::size_t>(n) * dist)),
-        columns_data(fftw_buffer<double>(static_cast<std::size_t>(mc) * dist)),
+        data(fftw_buffer<double>(static_cast<std::size_t>(n) * dist)),
         kernel_hat(kernel_spectrum(K, 2 * (mc - 1))) {
     m = 2 * (mc - 1);
     const unsigned flags = planner_flags(planning);
-    rows.reserve(static_cast<std::size_t>(parts));
-    columns.reserve(static_cast<std::size_t>(parts));
-    for (int c = 0; c < parts; ++c) {
-      const Share r = share(n, parts, c), k = share(mc, parts, c);
-      rows.emplace_back(mc - 1, r.end - r.begin, dist, flags);
-      columns.emplace_back(mc - 1, k.end - k.begin, dist, flags);
-    }
+    batches.reserve(static_cast<std::size_t>(parts));
+    for (int c = 0; c < parts; ++c)
+      batches.push_back({DctI(mc - 1, dist, flags),
+                         fftw_buffer<double>(static_cast<std::size_t>(DctI::kChunk) * dist)});
+  }
+
+  /// Calls chunk(first, count) for the chunks of at most DctI::kChunk of the
+  /// range r.
+  template <class Chunk>
+  static void by_chunks(Share r, Chunk&& chunk) {
+    for (int first = r.begin; first < r.end; first += DctI::kChunk)
+      chunk(first, std::min(DctI::kChunk, r.end - first));
   }
 
   void apply(const double* p, double* w) override {
     const auto un = static_cast<std::size_t>(n);
     const auto umc = static_cast<std::size_t>(mc);
     const auto ud = static_cast<std::size_t>(dist);
-    double* d = rows_data.get();
-    double* t = columns_data.get();
+    double* d = data.get();
     const double* kh = kernel_hat.get();
     // Along X: P into the first n values of each row, zeros after, transform.
     const auto rows_in = [&](int c) {
-      const Share r = share(n, parts, c);
-      for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j) {
-        std::copy_n(p + j * un, un, d + j * ud);
-        std::fill(d + j * ud + un, d + j * ud + umc, 0.0);
-      }
-      rows[c].apply(d + r.begin * ud);
+      by_chunks(share(n, parts, c), [&](int first, int count) {
+        for (auto j = static_cast<std::size_t>(first); j < static_cast<std::size_t>(first + count);
+             ++j) {
+          std::copy_n(p + j * un, un, d + j * ud);
+          std::fill(d + j * ud + un, d + j * ud + umc, 0.0);
+        }
+        batches[c].dct.apply(d + first * ud, count);
+      });
     };
-    // Along Y, on the batch's columns kx: transposed into rows of t (zero
-    // beyond the n data values), transform, product with the kernel spectrum,
-    // inverse transform (DCT-I is its own inverse up to the scale), and the
-    // first n values transposed back.
-    const auto columns_stage = [&](int c) {
-      const Share k = share(mc, parts, c);
-      double* strip = t + k.begin * ud;
-      const int cols = k.end - k.begin;
-      transpose(d + k.begin, dist, strip, dist, n, cols);
-      for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
-        double* row = strip + kx * ud;
-        std::fill(row + un, row + umc, 0.0);
-      }
-      columns[c].apply(strip);
-      for (std::size_t kx = 0; kx < static_cast<std::size_t>(cols); ++kx) {
-        double* row = strip + kx * ud;
-        const double* kernel_row = kh + (k.begin + kx) * umc;
-        for (std::size_t ky = 0; ky < umc; ++ky) row[ky] *= kernel_row[ky];
-      }
-      columns[c].apply(strip);
-      transpose(strip, dist, d + k.begin, dist, cols, n);
+    // Along Y, a few columns kx at a time: transposed into the strip (zero
+    // beyond the n data values), transform, product with the kernel
+    // spectrum, inverse transform (DCT-I is its own inverse up to the scale),
+    // and the first n values transposed back.
+    const auto columns = [&](int c) {
+      double* strip = batches[c].strip.get();
+      by_chunks(share(mc, parts, c), [&](int first, int count) {
+        transpose(d + first, dist, strip, dist, n, count);
+        for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
+          double* row = strip + kx * ud;
+          std::fill(row + un, row + umc, 0.0);
+        }
+        batches[c].dct.apply(strip, count);
+        for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
+          double* row = strip + kx * ud;
+          const double* kernel_row = kh + (first + kx) * umc;
+          for (std::size_t ky = 0; ky < umc; ++ky) row[ky] *= kernel_row[ky];
+        }
+        batches[c].dct.apply(strip, count);
+        transpose(strip, dist, d + first, dist, count, n);
+      });
     };
     // Along X: the inverse transforms, W out of the first n values.
     const auto rows_out = [&](int c) {
-      const Share r = share(n, parts, c);
-      rows[c].apply(d + r.begin * ud);
-      for (auto j = static_cast<std::size_t>(r.begin); j < static_cast<std::size_t>(r.end); ++j)
-        std::copy_n(d + j * ud, un, w + j * un);
+      by_chunks(share(n, parts, c), [&](int first, int count) {
+        batches[c].dct.apply(d + first * ud, count);
+        for (auto j = static_cast<std::size_t>(first); j < static_cast<std::size_t>(first + count);
+             ++j)
+          std::copy_n(d + j * ud, un, w + j * un);
+      });
     };
-    in_three_stages(parts, rows_in, columns_stage, rows_out);
+    in_three_stages(parts, rows_in, columns, rows_out);
   }
 };
 
