@@ -423,19 +423,25 @@ class DctI {
   double prepare(const double* __restrict xv, int v) {
     double* __restrict uv = u_.get() + static_cast<std::size_t>(v) * M_;
     const double* __restrict sj = sin_.data();
-    uv[0] = xv[0] + xv[M_];
-    for (int j = 1; j < M_; ++j) uv[j] = xv[j] + xv[M_ - j] + sj[j] * (xv[j] - xv[M_ - j]);
-    // Y_1 in four partial sums held in registers (j = 0, 1, 2, 3 mod 4).
-    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    const double* __restrict cj = cos_.data();
+    // One pass for u and Y_1, with Y_1 in four partial sums (j = 0, 1, 2, 3
+    // mod 4); sin(0) = 0 makes u_0 = x_0 + x_M.
+    double s[4] = {0.0, 0.0, 0.0, 0.0};
     int j = 0;
-    for (; j + 4 <= M_; j += 4) {
-      s0 += cos_[j] * (xv[j] - xv[M_ - j]);
-      s1 += cos_[j + 1] * (xv[j + 1] - xv[M_ - j - 1]);
-      s2 += cos_[j + 2] * (xv[j + 2] - xv[M_ - j - 2]);
-      s3 += cos_[j + 3] * (xv[j + 3] - xv[M_ - j - 3]);
+    for (; j + 4 <= M_; j += 4)
+      for (int t = 0; t < 4; ++t) {
+        const double x = xv[j + t], y = xv[M_ - j - t];
+        const double b = x - y;
+        uv[j + t] = (x + y) + sj[j + t] * b;
+        s[t] += cj[j + t] * b;
+      }
+    for (; j < M_; ++j) {
+      const double x = xv[j], y = xv[M_ - j];
+      const double b = x - y;
+      uv[j] = (x + y) + sj[j] * b;
+      s[0] += cj[j] * b;
     }
-    for (; j < M_; ++j) s0 += cos_[j] * (xv[j] - xv[M_ - j]);
-    return ((s0 + s1) + s2) + s3;
+    return ((s[0] + s[1]) + s[2]) + s[3];
   }
 
   int M_, dist_;
