@@ -386,10 +386,76 @@ class DctI {
       }));
   }
 
-  /// Transforms the `count` (<= kChunk) vectors at x.
+  /// Transforms the `count` (<= kChunk) vectors at x in place.
   void apply(double* x, int count) {
     std::array<double, kChunk> y1{};
-    for (int v = 0; v < count; ++v) y1[v] = prepare(x + static_cast<std::size_t>(v) * dist_, v);
+    for (int v = 0; v < count; ++v) {
+      const double* __restrict xv = x + static_cast<std::size_t>(v) * dist_;
+      Sums s;
+      prepare(
+          0, M_, v, [&](int j) { return xv[j]; }, [&](int j) { return xv[M_ - j]; }, s);
+      y1[v] = s.total();
+    }
+    finish(x, count, y1);
+  }
+
+  /// Transforms the `count` (<= kChunk) vectors whose first `values`
+  /// (<= M) values are those of the rows of `src` (stride src_dist) and the
+  /// rest zero; the results go to the vectors at x (which may be src).  The
+  /// zeros are neither stored nor read: the forward transforms of the
+  /// quadrant have data in the first half of each vector only.
+  void apply_padded(const double* src, int src_dist, int values, double* x, int count) {
+    // x_j is data for j < values, x_{M-j} for j >= M - values + 1.
+    const int a = values, b = M_ - values + 1;
+    std::array<double, kChunk> y1{};
+    for (int v = 0; v < count; ++v) {
+      const double* __restrict sv = src + static_cast<std::size_t>(v) * src_dist;
+      const auto data = [&](int j) { return sv[j]; };
+      const auto mirror = [&](int j) { return sv[M_ - j]; };
+      const auto zero = [](int) { return 0.0; };
+      Sums s;
+      prepare(0, std::min(a, b), v, data, zero, s);
+      if (a <= b)
+        prepare(a, b, v, zero, zero, s);
+      else
+        prepare(b, a, v, data, mirror, s);
+      prepare(std::max(a, b), M_, v, zero, mirror, s);
+      y1[v] = s.total();
+    }
+    finish(x, count, y1);
+  }
+
+ private:
+  /// Y_1 in four partial sums, of j = 0, 1, 2, 3 mod 4, each in the order of j.
+  struct Sums {
+    double s[4] = {0.0, 0.0, 0.0, 0.0};
+    [[nodiscard]] double total() const { return ((s[0] + s[1]) + s[2]) + s[3]; }
+  };
+
+  /// u_j of the vector in slot v for j in [j0, j1), and its share of Y_1,
+  /// where x(j) is the vector's value x_j and y(j) its value x_{M-j}.
+  /// sin(0) = 0 makes u_0 = x_0 + x_M.
+  template <class X, class Y>
+  void prepare(int j0, int j1, int v, X x, Y y, Sums& sums) {
+    double* __restrict uv = u_.get() + static_cast<std::size_t>(v) * M_;
+    const double* __restrict sj = sin_.data();
+    const double* __restrict cj = cos_.data();
+    const auto term = [&](int j, double& partial) {
+      const double xj = x(j), yj = y(j);
+      const double odd = xj - yj;
+      uv[j] = (xj + yj) + sj[j] * odd;
+      partial += cj[j] * odd;
+    };
+    int j = j0;
+    for (; j < j1 && j % 4 != 0; ++j) term(j, sums.s[j % 4]);
+    for (; j + 4 <= j1; j += 4)
+      for (int t = 0; t < 4; ++t) term(j + t, sums.s[t]);
+    for (; j < j1; ++j) term(j, sums.s[j % 4]);
+  }
+
+  /// The real DFTs of the prepared u into the vectors at x, and their odd
+  /// values from Y_1.
+  void finish(double* x, int count, const std::array<double, kChunk>& y1) {
     fftw_execute_dft_r2c(plans_[count - 1].get(), u_.get(), reinterpret_cast<fftw_complex*>(x));
     // x_{2q} = Re U_q is in place; x_{2q+1} = x_{2q-1} + 2 Im U_q, a chain of
     // dependent additions along each vector: four vectors at a time, so that
@@ -416,32 +482,6 @@ class DctI {
       a[1] = ra;
       for (int j = 3; j < M_; j += 2) a[j] = ra = ra + 2.0 * a[j];
     }
-  }
-
- private:
-  /// Writes u of the vector x into slot v; returns its Y_1.
-  double prepare(const double* __restrict xv, int v) {
-    double* __restrict uv = u_.get() + static_cast<std::size_t>(v) * M_;
-    const double* __restrict sj = sin_.data();
-    const double* __restrict cj = cos_.data();
-    // One pass for u and Y_1, with Y_1 in four partial sums (j = 0, 1, 2, 3
-    // mod 4); sin(0) = 0 makes u_0 = x_0 + x_M.
-    double s[4] = {0.0, 0.0, 0.0, 0.0};
-    int j = 0;
-    for (; j + 4 <= M_; j += 4)
-      for (int t = 0; t < 4; ++t) {
-        const double x = xv[j + t], y = xv[M_ - j - t];
-        const double b = x - y;
-        uv[j + t] = (x + y) + sj[j + t] * b;
-        s[t] += cj[j + t] * b;
-      }
-    for (; j < M_; ++j) {
-      const double x = xv[j], y = xv[M_ - j];
-      const double b = x - y;
-      uv[j] = (x + y) + sj[j] * b;
-      s[0] += cj[j] * b;
-    }
-    return ((s[0] + s[1]) + s[2]) + s[3];
   }
 
   int M_, dist_;
@@ -511,30 +551,21 @@ struct MirroredImpl final : FftDeformation::Impl {
     const auto ud = static_cast<std::size_t>(dist);
     double* d = data.get();
     const double* kh = kernel_hat.get();
-    // Along X: P into the first n values of each row, zeros after, transform.
+    // Along X: the rows of P (zero beyond their n values), transformed into d.
     const auto rows_in = [&](int c) {
       by_chunks(share(n, parts, c), [&](int first, int count) {
-        for (auto j = static_cast<std::size_t>(first); j < static_cast<std::size_t>(first + count);
-             ++j) {
-          std::copy_n(p + j * un, un, d + j * ud);
-          std::fill(d + j * ud + un, d + j * ud + umc, 0.0);
-        }
-        batches[c].dct.apply(d + first * ud, count);
+        batches[c].dct.apply_padded(p + first * un, n, n, d + first * ud, count);
       });
     };
-    // Along Y, a few columns kx at a time: transposed into the strip (zero
-    // beyond the n data values), transform, product with the kernel
+    // Along Y, a few columns kx at a time: their n data values transposed
+    // into the strip, transform (zero beyond them), product with the kernel
     // spectrum, inverse transform (DCT-I is its own inverse up to the scale),
     // and the first n values transposed back.
     const auto columns = [&](int c) {
       double* strip = batches[c].strip.get();
       by_chunks(share(mc, parts, c), [&](int first, int count) {
         transpose(d + first, dist, strip, dist, n, count);
-        for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
-          double* row = strip + kx * ud;
-          std::fill(row + un, row + umc, 0.0);
-        }
-        batches[c].dct.apply(strip, count);
+        batches[c].dct.apply_padded(strip, dist, n, strip, count);
         for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
           double* row = strip + kx * ud;
           const double* kernel_row = kh + (first + kx) * umc;
