@@ -106,6 +106,27 @@ TEST(SpikeAnalysis, SpikeMovingAtAKnownSpeed) {
   }
 }
 
+TEST(SpikeAnalysis, OneRadialOrderServesEveryFieldOfItsGrid) {
+  // A run sorts its grid's points once and gathers each step's pressure: two
+  // different fields through one order give what a fresh sort of each gives,
+  // and R^2 comes back as the square of the sorted radius.
+  const Grid2D grid(kPoints, kHalfWidth);
+  const RadialOrder order(grid);
+  const Field dome = sample(grid, [](double R) { return R < 1.0 ? 1.0 - R * R : 0.0; });
+  const Field bowl = sample(grid, [](double R) { return R * R; });
+  for (const Field* P : {&dome, &bowl}) {
+    const Profile gathered = order.profile(P->span());
+    const Profile sorted = quadrant_radial_profile(grid, P->span());
+    EXPECT_EQ(gathered.position, sorted.position);
+    EXPECT_EQ(gathered.value, sorted.value);
+  }
+  const Profile squares = order.profile(bowl.span());
+  for (std::size_t k = 0; k < squares.size(); ++k)
+    EXPECT_NEAR(squares.value[k], squares.position[k] * squares.position[k], 1e-12);
+  EXPECT_THROW((void)order.profile(std::span<const double>(bowl.span().data(), 3)),
+               std::invalid_argument);
+}
+
 TEST(SpikeAnalysis, RadialProfileOfAnAxisymmetricField) {
   const Grid2D grid(kPoints, kHalfWidth);
   const auto f = [](double R) { return R < 1.0 ? std::pow(1.0 - R * R, 1.5) : 0.0; };

@@ -109,29 +109,41 @@ std::vector<double> gaussian_smooth(const std::vector<double>& x, std::size_t pa
 
 }  // namespace
 
-Profile quadrant_radial_profile(const Grid2D& grid, std::span<const double> P) {
-  if (P.size() != grid.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
+RadialOrder::RadialOrder(const Grid2D& grid) : grid_(grid) {
   const int centre = (grid.n - 1) / 2;
   struct Sample {
-    double R, P;
+    double R;
+    std::size_t index;
   };
   std::vector<Sample> samples;
   for (int j = centre; j < grid.n; ++j) {
     for (int i = centre; i < grid.n; ++i) {
       const double R = std::hypot(grid.x(i), grid.y(j));
-      if (R <= grid.half_width) samples.push_back({R, P[grid.index(i, j)]});
+      if (R <= grid.half_width) samples.push_back({R, grid.index(i, j)});
     }
   }
   std::stable_sort(samples.begin(), samples.end(),
                    [](const Sample& a, const Sample& b) { return a.R < b.R; });
-  Profile out;
-  out.position.reserve(samples.size());
-  out.value.reserve(samples.size());
+  radius_.reserve(samples.size());
+  index_.reserve(samples.size());
   for (const Sample& s : samples) {
-    out.position.push_back(s.R);
-    out.value.push_back(s.P);
+    radius_.push_back(s.R);
+    index_.push_back(s.index);
   }
+}
+
+Profile RadialOrder::profile(std::span<const double> P) const {
+  if (P.size() != grid_.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
+  Profile out;
+  out.position = radius_;
+  out.value.reserve(index_.size());
+  for (const std::size_t k : index_) out.value.push_back(P[k]);
   return out;
+}
+
+Profile quadrant_radial_profile(const Grid2D& grid, std::span<const double> P) {
+  if (P.size() != grid.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
+  return RadialOrder(grid).profile(P);
 }
 
 Profile axis_profile(const Grid2D& grid, std::span<const double> P) {
@@ -258,10 +270,17 @@ std::optional<Peak> outermost_peak(const Profile& profile, const PeakRule& rule)
 
 SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,
                             const SpikeSettings& settings) {
+  if (P.size() != grid.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
+  return analyze_spike(RadialOrder(grid), P, settings);
+}
+
+SpikeAnalysis analyze_spike(const RadialOrder& order, std::span<const double> P,
+                            const SpikeSettings& settings) {
+  const Grid2D& grid = order.grid();
   const double h = grid.h();
   SpikeAnalysis out;
-  const Profile averaged = moving_average(
-      quadrant_radial_profile(grid, P), settings.smoothing_points, settings.max_window_meshes * h);
+  const Profile averaged =
+      moving_average(order.profile(P), settings.smoothing_points, settings.max_window_meshes * h);
   out.filtered = resample_uniform(averaged, settings.resample_meshes * h);
   out.filtered.value = low_pass(out.filtered.value, settings.resample_meshes * h, settings.filter,
                                 settings.cutoff_meshes * h);

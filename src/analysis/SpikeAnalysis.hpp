@@ -31,6 +31,24 @@ struct Profile {
 /// by R (ties in grid order).  P is a field on `grid` (row-major, j * n + i).
 [[nodiscard]] Profile quadrant_radial_profile(const Grid2D& grid, std::span<const double> P);
 
+/// The points of quadrant_radial_profile in the order of their R.  The order
+/// depends on the grid only: a run sorts once and gathers the pressure of
+/// each step (sorting the 1025^2 quadrant at every step took 1.5 % of a run,
+/// on one thread while the other waited).
+class RadialOrder {
+ public:
+  RadialOrder() = default;
+  explicit RadialOrder(const Grid2D& grid);
+  [[nodiscard]] const Grid2D& grid() const { return grid_; }
+  /// The sorted (R, P) of P, a field on grid().
+  [[nodiscard]] Profile profile(std::span<const double> P) const;
+
+ private:
+  Grid2D grid_;
+  std::vector<double> radius_;      // sorted
+  std::vector<std::size_t> index_;  // the grid index of each radius_
+};
+
 /// P(X) along Y = 0 for X >= 0 (grid.n must be odd so that Y = 0 is a grid line).
 [[nodiscard]] Profile axis_profile(const Grid2D& grid, std::span<const double> P);
 
@@ -79,6 +97,9 @@ struct SpikeAnalysis {
   std::optional<Peak> axial;   ///< the spike of P(X) on Y = 0 (grid point)
 };
 
+[[nodiscard]] SpikeAnalysis analyze_spike(const RadialOrder& order, std::span<const double> P,
+                                          const SpikeSettings& settings);
+/// The same for one field (sorts its grid's points first).
 [[nodiscard]] SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,
                                           const SpikeSettings& settings);
 

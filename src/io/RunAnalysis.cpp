@@ -93,12 +93,12 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   SpikeSeriesWriter series(report.files[0]);
   ProfileWriter radial(report.files[1], "T,R,P_filtered");
   ProfileWriter axis(report.files[2], "T,X,P");
+  const RadialOrder order(fields->grid());
   for (std::size_t k = 0; k < fields->times().size(); ++k) {
     const double T = fields->times()[k];
     // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
-    const SpikeAnalysis analysis =
-        analyze_spike(fields->grid(), fields->pressure(k).span(), settings);
+    const SpikeAnalysis analysis = analyze_spike(order, fields->pressure(k).span(), settings);
     series.append(spike_sample(T, analysis, dry));
     radial.append(T, analysis.filtered);
     axis.append(T, analysis.axis);

@@ -49,7 +49,7 @@ void ProfileWriter::append(double T, const Profile& profile) {
 
 SpikeOutput::SpikeOutput(const std::filesystem::path& directory, const ImpactConfig& config)
     : settings_(config.spike),
-      grid_(config.grid_points, config.half_width),
+      order_(Grid2D(config.grid_points, config.half_width)),
       dry_(config.Delta0, config.V0) {
   std::filesystem::create_directories(directory);
   series_.emplace(directory / kFile);
@@ -57,11 +57,11 @@ SpikeOutput::SpikeOutput(const std::filesystem::path& directory, const ImpactCon
 
 void SpikeOutput::on_step(const StepRecord& record, const Field& P, const Field& /*H*/,
                           bool /*snapshot*/) {
-  series_->append(spike_sample(record.T, analyze_spike(grid_, P.span(), settings_), dry_));
+  series_->append(spike_sample(record.T, analyze_spike(order_, P.span(), settings_), dry_));
 }
 
 void SpikeOutput::resume_after(double T, const Field& P) {
-  series_->resume_after(spike_sample(T, analyze_spike(grid_, P.span(), settings_), dry_));
+  series_->resume_after(spike_sample(T, analyze_spike(order_, P.span(), settings_), dry_));
 }
 
 void SpikeOutput::on_finish(const RunSummary& /*summary*/) { series_->commit(); }

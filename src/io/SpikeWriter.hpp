@@ -62,7 +62,7 @@ class SpikeOutput final : public ImpactObserver {
   /// Creates the directory if missing and opens "<directory>/spike.csv.part".
   SpikeOutput(const std::filesystem::path& directory, const ImpactConfig& config);
 
-  void on_start(const Grid2D& grid) override { grid_ = grid; }
+  void on_start(const Grid2D& grid) override { order_ = RadialOrder(grid); }
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
   void on_finish(const RunSummary& summary) override;
   /// A restart from the state after the step at T with pressure P: the
@@ -72,7 +72,7 @@ class SpikeOutput final : public ImpactObserver {
 
  private:
   SpikeSettings settings_;
-  Grid2D grid_;
+  RadialOrder order_;  // of the grid the run reports its fields on
   DryContactRadius dry_;
   std::optional<SpikeSeriesWriter> series_;
 };
