@@ -48,7 +48,7 @@ double ReynoldsOperator::kernel(int di, int dj) const {
 }
 
 double ReynoldsOperator::flow_factor_log_slope(double p) const {
-  // The rheology sees max(P, 0) (update_rheology): no slope below zero.
+  // The rheology sees max(P, 0) (update_rheology_and_film): no slope below zero.
   if (p < 0.0) return 0.0;
   const auto log_factor = [&](double q) {
     return std::log(lubricant_.rho_bar(q)) - lubricant_.log_eta_bar(q);
@@ -62,38 +62,40 @@ void ReynoldsOperator::update_coefficients(const Field& P) {
   // on a coarse grid, the FAS right-hand side and the first sweep), with at
   // most Delta changed in between: the deformation and the rheology are then
   // reused and only the film is recomputed.
-  if (!terms_belong_to(P)) update_pressure_terms(P);
-  update_film();
+  if (terms_belong_to(P)) {
+    update_film();
+    return;
+  }
+  if (deformation_) {
+    deformation_->apply(P, W_);
+    ++deformation_evaluations_;
+  }
+  update_rheology_and_film(P, true);
+  pressure_terms_valid_ = true;
 }
 
 void ReynoldsOperator::update_coefficients_keeping_deformation(const Field& P) {
-  if (!terms_belong_to(P)) {
-    update_rheology(P);
-    // W_ no longer belongs to P: the next full update computes everything.
-    pressure_terms_valid_ = false;
+  if (terms_belong_to(P)) {
+    update_film();
+    return;
   }
-  update_film();
+  update_rheology_and_film(P, false);
+  // W_ no longer belongs to P: the next full update computes everything.
+  pressure_terms_valid_ = false;
 }
 
 bool ReynoldsOperator::terms_belong_to(const Field& P) const {
   return pressure_terms_valid_ && equal_values(P, pressure_of_terms_);
 }
 
-void ReynoldsOperator::update_pressure_terms(const Field& P) {
-  if (deformation_) {
-    deformation_->apply(P, W_);
-    ++deformation_evaluations_;
-  }
-  update_rheology(P);
-  copy_into(P, pressure_of_terms_);
-  pressure_terms_valid_ = true;
-}
-
-void ReynoldsOperator::update_rheology(const Field& P) {
+void ReynoldsOperator::update_rheology_and_film(const Field& P, bool keep_pressure) {
   const double inv_lambda = 1.0 / settings_.lambda_bar;
   // The viscosity at P = 0, evaluated once: in contact much of the domain is
   // cavitated, and the exponential is the costly part of the loop.
   const double eta_zero = lubricant_.eta_bar(0.0);
+  // An incompressible density stays at 1 and its derivative at 0, as
+  // constructed: not written again (two fewer arrays through memory).
+  const bool compressible = lubricant_.density != DensityModel::Incompressible;
   const std::size_t size = grid_.size();
   const bool threaded = worth_threads(grid_);
   // Rows dealt round-robin: the pressurized rows, where the exponential is
@@ -104,12 +106,18 @@ void ReynoldsOperator::update_rheology(const Field& P) {
   for (std::size_t k = 0; k < size; ++k) {
     const double p = std::max(P[k], 0.0);
     const double rho = lubricant_.rho_bar(p);
-    rho_[k] = rho;
-    drho_[k] = lubricant_.density != DensityModel::Incompressible
-                   ? (lubricant_.rho_bar(p + kDensityDerivativeStep) - rho) / kDensityDerivativeStep
-                   : 0.0;
+    if (compressible) {
+      rho_[k] = rho;
+      drho_[k] = (lubricant_.rho_bar(p + kDensityDerivativeStep) - rho) / kDensityDerivativeStep;
+    }
     const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
-    rho_over_eta_lambda_[k] = rho * inv_lambda / eta;
+    const double rho_over_eta_lambda = rho * inv_lambda / eta;
+    rho_over_eta_lambda_[k] = rho_over_eta_lambda;
+    const double h = delta_ + shape_[k] + W_[k];
+    H_[k] = h;
+    const double hp = std::max(h, 0.0);  // as in update_film()
+    xi_[k] = rho_over_eta_lambda * hp * hp * hp;
+    if (keep_pressure) pressure_of_terms_[k] = P[k];
   }
 }
 

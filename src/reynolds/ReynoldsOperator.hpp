@@ -252,11 +252,12 @@ class ReynoldsOperator {
   double b0_ = 1.0;
   double delta_ = 0.0;
   Field shape_;  ///< X^2/2 + Y^2/2 + waviness: the undeformed gap without Delta
-  /// The parts of an update that depend on P only (deformation, density,
-  /// rho / (eta lambda_bar)), and the P they were computed for.
-  void update_pressure_terms(const Field& P);
-  /// Density, its derivative and rho / (eta lambda_bar) of P.
-  void update_rheology(const Field& P);
+  /// Density, its derivative and rho / (eta lambda_bar) of P, then H and xi
+  /// from them, the deformation W_ and Delta, in one pass over the points
+  /// (the loops are bound by memory traffic: two passes stream
+  /// rho / (eta lambda_bar) and P once more); with `keep_pressure`, P is
+  /// also copied into pressure_of_terms_.
+  void update_rheology_and_film(const Field& P, bool keep_pressure);
   /// True when the deformation and the rheology were computed for P.
   [[nodiscard]] bool terms_belong_to(const Field& P) const;
   /// H and xi from the pressure terms and Delta.
