@@ -175,8 +175,8 @@ inline void copy_into(const Field& v, Field& u) {
 /// Whether a and b (of one size) hold the same values.  A thread stops
 /// reading at its first difference; rows are dealt round-robin, so that every
 /// thread meets the contact (where two pressures differ) in its first rows:
-/// with halves, the thread of the outer half read all of it while the other
-/// waited.
+/// with halves, the thread of a quadrant's outer half, where both pressures
+/// are zero, reads all of it while the other waits.
 [[nodiscard]] inline bool equal_values(const Field& a, const Field& b) {
   bool equal = true;
   const std::size_t size = a.size();
