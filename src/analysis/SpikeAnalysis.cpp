@@ -142,7 +142,6 @@ Profile RadialOrder::profile(std::span<const double> P) const {
 }
 
 Profile quadrant_radial_profile(const Grid2D& grid, std::span<const double> P) {
-  if (P.size() != grid.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
   return RadialOrder(grid).profile(P);
 }
 
@@ -270,7 +269,6 @@ std::optional<Peak> outermost_peak(const Profile& profile, const PeakRule& rule)
 
 SpikeAnalysis analyze_spike(const Grid2D& grid, std::span<const double> P,
                             const SpikeSettings& settings) {
-  if (P.size() != grid.size()) throw std::invalid_argument("quadrant_radial_profile: field size");
   return analyze_spike(RadialOrder(grid), P, settings);
 }
 

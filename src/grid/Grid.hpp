@@ -30,6 +30,7 @@ namespace ehlsim {
 struct GridCenter {
   double x = 0.0;
   double y = 0.0;
+  bool operator==(const GridCenter&) const = default;
 };
 
 struct Grid2D {
@@ -40,6 +41,7 @@ struct Grid2D {
   GridCenter center;      ///< (0, 0) on a mirrored grid
 
   Grid2D() = default;
+  bool operator==(const Grid2D&) const = default;
   Grid2D(int points, double half, bool mirror = false, GridCenter centre = {})
       : n(points), half_width(half), mirrored(mirror), center(centre) {
     if (points < 3) throw std::invalid_argument("Grid2D: need at least 3 points per side");

@@ -62,7 +62,12 @@ class SpikeOutput final : public ImpactObserver {
   /// Creates the directory if missing and opens "<directory>/spike.csv.part".
   SpikeOutput(const std::filesystem::path& directory, const ImpactConfig& config);
 
-  void on_start(const Grid2D& grid) override { order_ = RadialOrder(grid); }
+  /// The constructor sorted the configuration's grid already (a restart
+  /// analyses its checkpoint before the run starts): sorted again only if
+  /// the run reports on another grid.
+  void on_start(const Grid2D& grid) override {
+    if (!(order_.grid() == grid)) order_ = RadialOrder(grid);
+  }
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
   void on_finish(const RunSummary& summary) override;
   /// A restart from the state after the step at T with pressure P: the

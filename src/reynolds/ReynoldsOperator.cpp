@@ -56,6 +56,15 @@ double ReynoldsOperator::flow_factor_log_slope(double p) const {
   return (log_factor(p + kFlowFactorSlopeStep) - log_factor(p)) / kFlowFactorSlopeStep;
 }
 
+inline void ReynoldsOperator::set_film_at(std::size_t k, double rho_over_eta_lambda) {
+  const double h = delta_ + shape_[k] + W_[k];
+  H_[k] = h;
+  // A negative film (possible in early iterates) must not give an
+  // anti-diffusive coefficient: the flow factor uses max(H, 0).
+  const double hp = std::max(h, 0.0);
+  xi_[k] = rho_over_eta_lambda * hp * hp * hp;
+}
+
 void ReynoldsOperator::update_coefficients(const Field& P) {
   // The relaxation and the residual often ask again for the pressure of the
   // last update (after the convergence check, the next cycle's first sweep;
@@ -113,10 +122,7 @@ void ReynoldsOperator::update_rheology_and_film(const Field& P, bool keep_pressu
     const double eta = p > 0.0 ? lubricant_.eta_bar(p) : eta_zero;
     const double rho_over_eta_lambda = rho * inv_lambda / eta;
     rho_over_eta_lambda_[k] = rho_over_eta_lambda;
-    const double h = delta_ + shape_[k] + W_[k];
-    H_[k] = h;
-    const double hp = std::max(h, 0.0);  // as in update_film()
-    xi_[k] = rho_over_eta_lambda * hp * hp * hp;
+    set_film_at(k, rho_over_eta_lambda);
     if (keep_pressure) pressure_of_terms_[k] = P[k];
   }
 }
@@ -125,14 +131,7 @@ void ReynoldsOperator::update_film() {
   const std::size_t size = grid_.size();
   const bool threaded = worth_threads(grid_);
 #pragma omp parallel for schedule(static) if (threaded)
-  for (std::size_t k = 0; k < size; ++k) {
-    const double h = delta_ + shape_[k] + W_[k];
-    H_[k] = h;
-    // A negative film (possible in early iterates) must not give an
-    // anti-diffusive coefficient: the flow factor uses max(H, 0).
-    const double hp = std::max(h, 0.0);
-    xi_[k] = rho_over_eta_lambda_[k] * hp * hp * hp;
-  }
+  for (std::size_t k = 0; k < size; ++k) set_film_at(k, rho_over_eta_lambda_[k]);
 }
 
 double ReynoldsOperator::apply_at(const Field& P, int i, int j, const Faces& faces) const {

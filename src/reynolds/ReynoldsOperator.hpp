@@ -262,6 +262,9 @@ class ReynoldsOperator {
   [[nodiscard]] bool terms_belong_to(const Field& P) const;
   /// H and xi from the pressure terms and Delta.
   void update_film();
+  /// H and xi of element k, given its rho / (eta lambda_bar): the one film
+  /// formula of update_film() and update_rheology_and_film().
+  void set_film_at(std::size_t k, double rho_over_eta_lambda);
 
   Field W_, H_, rho_, drho_, xi_;
   Field rho_over_eta_lambda_;
