@@ -37,6 +37,14 @@ constexpr double kFurtherRetryDamping = 0.5;
 /// A step none of whose attempts converges is solved as two halves, and each
 /// half likewise, down to dT / 2^kMaxSplitDepth.
 constexpr int kMaxSplitDepth = 2;
+/// The attempt from which on a step brings the deformation up to date before
+/// each colour of a sweep (once per sweep before it: section 7 of
+/// docs/model.md).  The last retry only: on the 1025^2 default case before
+/// each colour from the second retry on cost 140 work units per step in the
+/// rebound (T = 3.5-3.6) and 283 in the pocket collapse, against 105 and 205
+/// from the third, with the same cycles per step and steps retried, and the
+/// case maps on 65^2 and 129^2 ended alike (docs/performance.md).
+constexpr int kFirstAttemptWithDeformationEachColour = 3;
 
 /// The factor on both under-relaxation parameters in attempt `attempt` of a
 /// step: 1, then solver.retry_damping (0.8), then half of that at each
@@ -328,12 +336,8 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
   for (int attempt = first_attempt;; ++attempt) {
     const double damping = attempt_damping(attempt, cfg.retry_damping);
     hierarchy.set_damping(damping);
-    // The second and third retries bring the deformation up to date before
-    // each colour, as every attempt did before 2026-11-23: with it once per
-    // sweep throughout, M = 100, L = 20 on 129^2 failed at T = 4.10, and with
-    // it before each colour from the first retry on, the pocket collapse of
-    // the default case on 513^2 cost 57 % more work (docs/performance.md).
-    hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour || attempt > 1);
+    hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour ||
+                                          attempt >= kFirstAttemptWithDeformationEachColour);
     // The retries also guard against coarse-grid corrections that make the
     // residual worse (multigrid/Fas.hpp): on 513^2 the coarse grids cannot
     // represent the spike, and their corrections blew steps up.
