@@ -19,6 +19,19 @@ namespace {
 /// d(force) / dH0 of the dry Hertz contact in these units: the load grows as
 /// the approach^(3/2), with approach 1 at load 2 pi / 3, so -dF/dH0 = pi.
 constexpr double kLoadStiffness = std::numbers::pi;
+/// Rigid bodies (body.elastic = false): the film is H0 + X^2/2 + D Y^2/2 and
+/// does not flatten, so the dry stiffness above means nothing (it drove H0
+/// negative in the first cycle of M = 10, L = 0).  Scaling the Reynolds
+/// equation with X, Y ~ H0^(1/2), H ~ H0 gives P ~ lambda_bar H0^(-3/2) and
+/// the force F ~ lambda_bar H0^(-1/2) (isoviscous, an unbounded domain): H0
+/// = H0 (F / F0)^2 balances the force exactly under that law, and it keeps
+/// H0 positive whatever the force error.  A piezoviscous rigid contact is
+/// stiffer (F grows faster as H0 falls), so the exponent 2 is an upper
+/// bound of the step; the overshoot rule below damps it.
+constexpr double kRigidForceExponent = 2.0;
+/// The force ratio of the rigid update is clipped to [1/kRigidForceRatio,
+/// kRigidForceRatio]: no more than a 16-fold change of H0 per cycle.
+constexpr double kRigidForceRatio = 4.0;
 /// A stage whose residual grows this far above its first cycle's has diverged.
 constexpr double kDivergenceFactor = 1e3;
 /// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
@@ -159,7 +172,12 @@ void RollingProblem::Impl::start_from_hertz() {
   // H0 puts the central film of the Hertz pressure at the formula's value.
   set_h0(0.0);
   level.op().update_coefficients(P);
-  const double hc_formula = moes_to_hertz_film(nvm_central_film(cfg.M, cfg.L, cfg.D), cfg.M);
+  // Rigid bodies: the formula without its elastic terms (the full one puts
+  // H0 four times too high at M = 10, L = 0).
+  const double hc_formula =
+      moes_to_hertz_film(cfg.elastic ? nvm_central_film(cfg.M, cfg.L, cfg.D)
+                                     : nvm_rigid_central_film(cfg.M, cfg.L, cfg.D),
+                         cfg.M);
   set_h0(hc_formula - value_at(level.op().film(), g, 0.0, 0.0));
 }
 
@@ -169,6 +187,12 @@ void RollingProblem::Impl::update_h0(int level) {
     const double previous = history.back().force_error * kRollingLoad;
     if (error * previous < 0.0 && std::abs(error) > kOvershootRatio * std::abs(previous))
       h0_step = std::max(kMinH0Step, 0.5 * h0_step);
+  }
+  if (!cfg.elastic) {
+    const double ratio =
+        std::clamp((kRollingLoad + error) / kRollingLoad, 1.0 / kRigidForceRatio, kRigidForceRatio);
+    set_h0(h0 * std::pow(ratio, kRigidForceExponent * h0_step * cfg.h0_relaxation));
+    return;
   }
   set_h0(h0 + h0_step * cfg.h0_relaxation * error / kLoadStiffness);
 }
