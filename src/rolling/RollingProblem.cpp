@@ -7,6 +7,7 @@
 #include <iterator>
 #include <limits>
 #include <numbers>
+#include <string>
 
 #include "grid/FieldExtrema.hpp"
 #include "multigrid/Fas.hpp"
@@ -296,7 +297,40 @@ RollingProblem::RollingProblem(const RollingConfig& config)
     : impl_(std::make_unique<Impl>(config)) {}
 RollingProblem::~RollingProblem() = default;
 
+namespace {
+/// A rigid contact's pressure zone is about sqrt(2 Hc) wide (the gap doubles
+/// there); below this many meshes of the finest grid the discrete force
+/// cannot balance the load at any H0 and H0 falls towards zero (M = 100,
+/// L = 0 on 257^2: 0.7 meshes).  M = 10, L = 0 converges with 6 on 129^2.
+constexpr double kRigidMinMeshes = 3.0;
+
+/// Why a rigid run failed, for its message: its film unresolved, or a
+/// pressure-dependent viscosity (no rigid case with L > 0 has converged).
+std::string rigid_hint(const RollingConfig& c, double mesh) {
+  const double hc = moes_to_hertz_film(nvm_rigid_central_film(c.M, c.L, c.D), c.M);
+  const double meshes = std::sqrt(2.0 * hc) / mesh;
+  if (meshes < kRigidMinMeshes)
+    return fmt::format(
+        "; rigid bodies: the pressure zone, about sqrt(2 Hc) = {:.3g} with the rigid formula's "
+        "Hc = {:.3g}, spans {:.2g} meshes: use more points (grid.points) or a smaller domain",
+        std::sqrt(2.0 * hc), hc, meshes);
+  if (c.L > 0.0)
+    return "; rigid bodies with a pressure-dependent viscosity (case.L > 0) do not converge in "
+           "this driver (docs/validation.md)";
+  return {};
+}
+}  // namespace
+
 RollingResult RollingProblem::run(const CycleMonitor& monitor) {
+  if (impl_->cfg.elastic) return solve(monitor);
+  try {
+    return solve(monitor);
+  } catch (const RollingFailure& e) {
+    throw RollingFailure(e.what() + rigid_hint(impl_->cfg, impl_->grid.h()));
+  }
+}
+
+RollingResult RollingProblem::solve(const CycleMonitor& monitor) {
   Impl& s = *impl_;
   s.start_from_hertz();
   const int coarsest = s.solver->num_levels() - 1;
