@@ -192,7 +192,17 @@ void RollingProblem::Impl::update_h0(int level) {
   if (!cfg.elastic) {
     const double ratio =
         std::clamp((kRollingLoad + error) / kRollingLoad, 1.0 / kRigidForceRatio, kRigidForceRatio);
-    set_h0(h0 * std::pow(ratio, kRigidForceExponent * h0_step * cfg.h0_relaxation));
+    double next = h0 * std::pow(ratio, kRigidForceExponent * h0_step * cfg.h0_relaxation);
+    // A coarse level of the full multigrid start whose mesh is wider than
+    // the pressure zone cannot carry the load at any H0: its force saturates
+    // and H0 fell towards zero (M = 20, L = 0: 1e-9 on 33^2), a start the
+    // next level diverged from.  There H0 stays at the film whose zone
+    // sqrt(2 H0) is one mesh; the finest grid has no such floor.
+    if (level > 0) {
+      const double mesh = hierarchy.level(level).op().grid().h();
+      next = std::max(next, 0.5 * mesh * mesh);
+    }
+    set_h0(next);
     return;
   }
   set_h0(h0 + h0_step * cfg.h0_relaxation * error / kLoadStiffness);
