@@ -10,10 +10,10 @@ double nvm_central_film(double M, double L, double D) {
   using std::pow;
   // Rigid-isoviscous, elastic-isoviscous, rigid-piezoviscous and
   // elastic-piezoviscous asymptotes.
-  const double h_ri = 145.0 * pow(1.0 + 0.796 * pow(D, 14.0 / 15.0), -15.0 / 7.0) / D / (M * M);
+  const double h_ri = nvm_rigid_isoviscous_film(M, D);
   const double ellipse = 1.0 + 0.006 * log(D) + 0.63 * pow(D, 4.0 / 7.0);
   const double h_ei = 3.18 * pow(ellipse, -14.0 / 25.0) * pow(D, -1.0 / 15.0) * pow(M, -2.0 / 15.0);
-  const double h_rp = 1.29 * pow(1.0 + 0.691 * D, -2.0 / 3.0) * pow(L, 2.0 / 3.0);
+  const double h_rp = nvm_rigid_piezoviscous_film(L, D);
   const double h_ep =
       1.48 * pow(ellipse, -7.0 / 20.0) * pow(D, -1.0 / 24.0) * pow(M, -1.0 / 12.0) * pow(L, 0.75);
   const double h_00 = 1.8 / D;
@@ -23,6 +23,19 @@ double nvm_central_film(double M, double L, double D) {
   // L = 0: the piezoviscous asymptotes vanish and so does their term.
   const double piezoviscous = L > 0.0 ? pow(pow(h_rp, -8.0) + pow(h_ep, -8.0), -s / 8.0) : 0.0;
   return pow(isoviscous + piezoviscous, 1.0 / s);
+}
+
+double nvm_rigid_isoviscous_film(double M, double D) {
+  return 145.0 * std::pow(1.0 + 0.796 * std::pow(D, 14.0 / 15.0), -15.0 / 7.0) / D / (M * M);
+}
+
+double nvm_rigid_piezoviscous_film(double L, double D) {
+  return 1.29 * std::pow(1.0 + 0.691 * D, -2.0 / 3.0) * std::pow(L, 2.0 / 3.0);
+}
+
+double nvm_rigid_central_film(double M, double L, double D) {
+  return std::cbrt(std::pow(nvm_rigid_isoviscous_film(M, D), 3.0) +
+                   std::pow(nvm_rigid_piezoviscous_film(L, D), 3.0));
 }
 
 double moes_to_hertz_film(double h_moes, double M) { return h_moes / std::pow(1.5 * M, 2.0 / 3.0); }

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <limits>
 #include <numbers>
+#include <string>
 
 #include "grid/FieldExtrema.hpp"
 #include "multigrid/Fas.hpp"
@@ -19,6 +20,19 @@ namespace {
 /// d(force) / dH0 of the dry Hertz contact in these units: the load grows as
 /// the approach^(3/2), with approach 1 at load 2 pi / 3, so -dF/dH0 = pi.
 constexpr double kLoadStiffness = std::numbers::pi;
+/// Rigid bodies (body.elastic = false): the film is H0 + X^2/2 + D Y^2/2 and
+/// does not flatten, so the dry stiffness above means nothing (it drove H0
+/// negative in the first cycle of M = 10, L = 0).  Scaling the Reynolds
+/// equation with X, Y ~ H0^(1/2), H ~ H0 gives P ~ lambda_bar H0^(-3/2) and
+/// the force F ~ lambda_bar H0^(-1/2) (isoviscous, an unbounded domain): H0
+/// = H0 (F / F0)^2 balances the force exactly under that law, and it keeps
+/// H0 positive whatever the force error.  A piezoviscous rigid contact is
+/// stiffer (F grows faster as H0 falls), so the exponent 2 is an upper
+/// bound of the step; the overshoot rule below damps it.
+constexpr double kRigidForceExponent = 2.0;
+/// The force ratio of the rigid update is clipped to [1/kRigidForceRatio,
+/// kRigidForceRatio]: no more than a 16-fold change of H0 per cycle.
+constexpr double kRigidForceRatio = 4.0;
 /// A stage whose residual grows this far above its first cycle's has diverged.
 constexpr double kDivergenceFactor = 1e3;
 /// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
@@ -159,7 +173,12 @@ void RollingProblem::Impl::start_from_hertz() {
   // H0 puts the central film of the Hertz pressure at the formula's value.
   set_h0(0.0);
   level.op().update_coefficients(P);
-  const double hc_formula = moes_to_hertz_film(nvm_central_film(cfg.M, cfg.L, cfg.D), cfg.M);
+  // Rigid bodies: the formula without its elastic terms (the full one puts
+  // H0 four times too high at M = 10, L = 0).
+  const double hc_formula =
+      moes_to_hertz_film(cfg.elastic ? nvm_central_film(cfg.M, cfg.L, cfg.D)
+                                     : nvm_rigid_central_film(cfg.M, cfg.L, cfg.D),
+                         cfg.M);
   set_h0(hc_formula - value_at(level.op().film(), g, 0.0, 0.0));
 }
 
@@ -169,6 +188,22 @@ void RollingProblem::Impl::update_h0(int level) {
     const double previous = history.back().force_error * kRollingLoad;
     if (error * previous < 0.0 && std::abs(error) > kOvershootRatio * std::abs(previous))
       h0_step = std::max(kMinH0Step, 0.5 * h0_step);
+  }
+  if (!cfg.elastic) {
+    const double ratio =
+        std::clamp((kRollingLoad + error) / kRollingLoad, 1.0 / kRigidForceRatio, kRigidForceRatio);
+    double next = h0 * std::pow(ratio, kRigidForceExponent * h0_step * cfg.h0_relaxation);
+    // A coarse level of the full multigrid start whose mesh is wider than
+    // the pressure zone cannot carry the load at any H0: its force saturates
+    // and H0 fell towards zero (M = 20, L = 0: 1e-9 on 33^2), a start the
+    // next level diverged from.  There H0 stays at the film whose zone
+    // sqrt(2 H0) is one mesh; the finest grid has no such floor.
+    if (level > 0) {
+      const double mesh = hierarchy.level(level).op().grid().h();
+      next = std::max(next, 0.5 * mesh * mesh);
+    }
+    set_h0(next);
+    return;
   }
   set_h0(h0 + h0_step * cfg.h0_relaxation * error / kLoadStiffness);
 }
@@ -272,7 +307,40 @@ RollingProblem::RollingProblem(const RollingConfig& config)
     : impl_(std::make_unique<Impl>(config)) {}
 RollingProblem::~RollingProblem() = default;
 
+namespace {
+/// A rigid contact's pressure zone is about sqrt(2 Hc) wide (the gap doubles
+/// there); below this many meshes of the finest grid the discrete force
+/// cannot balance the load at any H0 and H0 falls towards zero (M = 100,
+/// L = 0 on 257^2: 0.7 meshes).  M = 10, L = 0 converges with 6 on 129^2.
+constexpr double kRigidMinMeshes = 3.0;
+
+/// Why a rigid run failed, for its message: its film unresolved, or a
+/// pressure-dependent viscosity (no rigid case with L > 0 has converged).
+std::string rigid_hint(const RollingConfig& c, double mesh) {
+  const double hc = moes_to_hertz_film(nvm_rigid_central_film(c.M, c.L, c.D), c.M);
+  const double meshes = std::sqrt(2.0 * hc) / mesh;
+  if (meshes < kRigidMinMeshes)
+    return fmt::format(
+        "; rigid bodies: the pressure zone, about sqrt(2 Hc) = {:.3g} with the rigid formula's "
+        "Hc = {:.3g}, spans {:.2g} meshes: use more points (grid.points) or a smaller domain",
+        std::sqrt(2.0 * hc), hc, meshes);
+  if (c.L > 0.0)
+    return "; rigid bodies with a pressure-dependent viscosity (case.L > 0) do not converge in "
+           "this driver (docs/validation.md)";
+  return {};
+}
+}  // namespace
+
 RollingResult RollingProblem::run(const CycleMonitor& monitor) {
+  if (impl_->cfg.elastic) return solve(monitor);
+  try {
+    return solve(monitor);
+  } catch (const RollingFailure& e) {
+    throw RollingFailure(e.what() + rigid_hint(impl_->cfg, impl_->grid.h()));
+  }
+}
+
+RollingResult RollingProblem::solve(const CycleMonitor& monitor) {
   Impl& s = *impl_;
   s.start_from_hertz();
   const int coarsest = s.solver->num_levels() - 1;

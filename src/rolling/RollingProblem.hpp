@@ -61,6 +61,7 @@ class RollingProblem {
   [[nodiscard]] static Grid2D grid_of(const RollingConfig& config);
 
  private:
+  [[nodiscard]] RollingResult solve(const CycleMonitor& monitor);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
