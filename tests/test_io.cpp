@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -34,6 +36,7 @@
 #include "io/FieldReader.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Interrupt.hpp"
+#include "io/IsolatedRead.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
@@ -1294,6 +1297,93 @@ TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
 }
 
 // ---------------------------------------------------------------------------
+// Untrusted files read in a child process first (io/IsolatedRead.hpp)
+// ---------------------------------------------------------------------------
+
+/// A short bound for the reads that must time out (a hang is a hang however long).
+constexpr std::chrono::milliseconds kShortBound{500};
+
+/// The pid a child wrote into `file`.
+pid_t pid_in(const fs::path& file) {
+  std::ifstream in(file);
+  pid_t pid = -1;
+  in >> pid;
+  return pid;
+}
+
+/// Whether process `pid` is gone (reaped, not a zombie).
+bool process_is_gone(pid_t pid) { return kill(pid, 0) != 0 && errno == ESRCH; }
+
+TEST(IsolatedRead, AChildThatReadsOrFailsLeavesTheVerdictToTheCaller) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  ::testing::internal::CaptureStderr();
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { std::fputs("noise\n", stderr); }));
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { throw std::runtime_error("damaged"); }));
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { throw 42; }));
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");  // the child says nothing
+}
+
+TEST(IsolatedRead, AChildThatCrashesNamesTheFileAndHow) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const std::string prefix = "cannot read checkpoint '" + path.string() + "': ";
+  EXPECT_EQ(read_error([&] { pre_read_in_child(path, "read checkpoint", [] { std::abort(); }); }),
+            prefix + "the NetCDF/HDF5 library crashed reading it (SIGABRT): the file is damaged");
+  // An exit status the child never gives itself: a sanitizer's report.
+  EXPECT_EQ(
+      read_error([&] { pre_read_in_child(path, "read checkpoint", [] { _exit(1); }); }),
+      prefix + "the NetCDF/HDF5 library crashed reading it (exit status 1): the file is damaged");
+}
+
+TEST(IsolatedRead, AChildThatDoesNotEndInTimeIsKilled) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const fs::path pid_file = dir / "child.pid";
+  const auto start = std::chrono::steady_clock::now();
+  const std::string message = read_error([&] {
+    pre_read_in_child(
+        path, "read",
+        [&] {
+          std::ofstream(pid_file) << getpid();
+          for (;;) pause();
+        },
+        std::chrono::seconds(2));  // long enough for the child to write its pid
+  });
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  EXPECT_EQ(message, "cannot read '" + path.string() +
+                         "': the NetCDF/HDF5 library did not finish reading it in 2 s (it loops "
+                         "for ever on some damaged files; the read was stopped): the file is "
+                         "damaged");
+  EXPECT_TRUE(process_is_gone(pid_in(pid_file)));
+  // The bound of the commands: 30 s, and more for a larger file.
+  EXPECT_EQ(pre_read_bound(0), std::chrono::seconds(30));
+  EXPECT_GT(pre_read_bound(std::uintmax_t{1} << 30), pre_read_bound(std::uintmax_t{1} << 20));
+}
+
+TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const fs::path pid_file = dir / "child.pid";
+  {
+    const InterruptGuard interrupts;
+    try {
+      // The child signals its parent, as a Ctrl-C would, and then hangs.
+      pre_read_in_child(path, "read", [&] {
+        std::ofstream(pid_file) << getpid();
+        kill(getppid(), SIGTERM);
+        for (;;) pause();
+      });
+      FAIL() << "the pre-read ignored SIGTERM";
+    } catch (const PreReadInterrupted& e) {
+      EXPECT_EQ(e.signal, SIGTERM);
+    }
+    EXPECT_TRUE(process_is_gone(pid_in(pid_file)));
+  }
+  const InterruptGuard clear;  // the flag outlives a guard: no later test may see it
+}
+
+// ---------------------------------------------------------------------------
 // Progress line
 // ---------------------------------------------------------------------------
 
@@ -1840,6 +1930,7 @@ TEST(Interrupt, ASignalSetsTheFlagInsteadOfEndingTheProcess) {
   EXPECT_EQ(exit_code_for_signal(SIGTERM), 143);
   EXPECT_EQ(exit_code_for_signal(SIGHUP), 129);
   EXPECT_EQ(signal_name(SIGHUP), "SIGHUP");
+  EXPECT_EQ(signal_name(SIGSEGV), "SIGSEGV");  // a child's crash (io/IsolatedRead.hpp)
   {
     const InterruptGuard guard;
     const StopOnSignal stop;
