@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
@@ -715,6 +716,66 @@ TEST(Lifecycle, SpikeSignalledAnyTimeLeavesOneCompleteSet) {
         << delay_ms;
   }
   EXPECT_GT(interrupted, 0);  // the signal right after the lock comes before the swap
+}
+
+/// The child processes of `pid` (none once it has ended).
+std::vector<pid_t> children_of(pid_t pid) {
+  const std::string task = std::to_string(pid);
+  std::ifstream in("/proc/" + task + "/task/" + task + "/children");
+  std::vector<pid_t> children;
+  for (pid_t child = 0; in >> child;) children.push_back(child);
+  return children;
+}
+
+/// Waits until `c` has a child process (its read of an untrusted file, done in
+/// a child first: io/IsolatedRead.hpp) and returns its pid; -1 after kPatience.
+pid_t wait_for_reader(const Child& c) {
+  const auto until = std::chrono::steady_clock::now() + kPatience;
+  while (std::chrono::steady_clock::now() < until && !has_ended(c)) {
+    if (const std::vector<pid_t> children = children_of(c.pid); !children.empty())
+      return children.front();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return -1;
+}
+
+fs::path library_crash(const std::string& name) {
+  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+}
+
+/// HDF5 loops for ever on these files, and before, SIGTERM and SIGINT only set
+/// the flag a time step looks at: kill -9 alone ended the command.
+TEST(Lifecycle, ASignalWhileHdf5HangsOnAFileEndsTheCommandAndItsReader) {
+  TempDir work;
+  const fs::path checkpoint = library_crash("checkpoint-hdf5-H5HG-heap-loop.nc");
+  const fs::path out = work / "out";
+  const fs::path run = work / "run";
+  fs::create_directories(run);
+  std::ofstream(run / "run.json") << R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})";
+  fs::copy_file(library_crash("fields-hdf5-H5HG-heap-loop.nc"), run / "fields.nc");
+  const std::vector<std::tuple<std::vector<std::string>, int, std::string>> cases = {
+      {{"impact", "--quiet", "--set", "grid.points=9", "--set", "solver.coarsest_points=5",
+        "--restart", checkpoint.string(), "--out", out.string()},
+       SIGTERM,
+       "ehlsim: interrupted by SIGTERM while checkpoint '" + checkpoint.string() +
+           "' was read, before the run started: '" + out.string() +
+           "' was not changed; run the command again\n"},
+      {{"spike", run.string()},
+       SIGINT,
+       "ehlsim: interrupted by SIGINT: the spike files in '" + run.string() +
+           "' were not changed\n"}};
+  for (const auto& [args, signal, message] : cases) {
+    const Child c = start(args, work / "command");
+    const pid_t reader = wait_for_reader(c);
+    ASSERT_GT(reader, 0) << args.front();
+    kill(c.pid, signal);
+    const Result r = result_of(c);
+    EXPECT_EQ(r.exit_code, 128 + signal) << args.front();
+    EXPECT_EQ(r.err, message);
+    EXPECT_TRUE(kill(reader, 0) != 0 && errno == ESRCH) << "the reader lives on";
+  }
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"command.err", "command.out", "run"}));
+  EXPECT_EQ(names_in(run), (std::set<std::string>{"fields.nc", "run.json"}));
 }
 
 TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
