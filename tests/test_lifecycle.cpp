@@ -23,12 +23,14 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "io/Checkpoint.hpp"
@@ -276,12 +278,13 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});
 }
 
-/// A tmpfs of a few hundred kB, unmounted at the end (mount needs root).
+/// A tmpfs of a few hundred kB (read-only with MS_RDONLY), unmounted at the
+/// end (mount needs root).
 class SmallTmpfs {
  public:
-  explicit SmallTmpfs(const fs::path& at) : at_(at) {
+  explicit SmallTmpfs(const fs::path& at, unsigned long flags = 0) : at_(at) {
     fs::create_directories(at_);
-    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", 0, "size=200k") == 0;
+    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", flags, "size=200k") == 0;
   }
   ~SmallTmpfs() {
     if (mounted_) umount(at_.c_str());
@@ -310,6 +313,41 @@ TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work / "disk"), std::set<std::string>{"run"});
+}
+
+/// A place no run can write into (issue 10: "permissions"): a read-only
+/// tmpfs for root, whom file permissions do not stop, else a directory without
+/// write permission.  Every command ends with exit 1 and one line naming the
+/// path and the reason, and leaves nothing.
+TEST(Lifecycle, AnUnwritablePlaceEndsWithOneLineNamingIt) {
+  TempDir work;
+  const fs::path place = work / "locked";
+  std::optional<SmallTmpfs> read_only;
+  std::string reason = "Permission denied";
+  if (geteuid() == 0) {
+    read_only.emplace(place, MS_RDONLY);
+    if (!read_only->mounted()) GTEST_SKIP() << "mount -t tmpfs is not permitted here";
+    reason = "Read-only file system";
+  } else {
+    fs::create_directories(place);
+    fs::permissions(place, fs::perms::owner_read | fs::perms::owner_exec);
+  }
+  const std::string lock = "cannot create lock file '" + (place / ".run.lock").string() + "': ";
+  const std::string parent = "cannot create '" + (place / "sub").string() +
+                             "', the parent directory of --out '" +
+                             (place / "sub" / "run").string() + "': ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"impact " + kTiny + "--set time.T_end=0.2 --out " + quote((place / "run").string()), lock},
+      {"impact " + kTiny + "--out " + quote((place / "sub" / "run").string()), parent},
+      {"rolling --quiet --set grid.points=33 --out " + quote((place / "run").string()), lock},
+      {"study --grid 33 --no-plots --out " + quote((place / "run").string()), lock}};
+  for (const auto& [args, message] : cases) {
+    const Result r = ehlsim(args);
+    EXPECT_EQ(r.exit_code, 1) << args;
+    EXPECT_EQ(r.err, "ehlsim: error: " + message + reason + "\n") << args;
+  }
+  EXPECT_TRUE(fs::is_empty(place));
+  if (!read_only) fs::permissions(place, fs::perms::owner_all);  // for TempDir's removal
 }
 
 /// A failed run keeps its last checkpoint (named in the message) and does not
