@@ -38,6 +38,7 @@
 #include "impact/ImpactProblem.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
+#include "io/IsolatedRead.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
@@ -261,6 +262,27 @@ nlohmann::json invocation_json(const ImpactOptions& options,
   return invocation;
 }
 
+/// Reads the checkpoint of --restart into `checkpoint` (in a child process
+/// first: io/IsolatedRead.hpp).  Returns kExitOk, or the exit code after its
+/// one line: 2 for a file that cannot be read (damaged, or one the NetCDF/HDF5
+/// library crashes or hangs on), 128 + the signal for a signal meanwhile.
+int read_restart_checkpoint(const ImpactOptions& options, std::optional<Checkpoint>& checkpoint) {
+  try {
+    checkpoint = read_untrusted_checkpoint(options.restart_file);
+  } catch (const PreReadInterrupted& e) {
+    std::fprintf(stderr,
+                 "ehlsim: interrupted by %s while checkpoint '%s' was read, before the run "
+                 "started: '%s' was not changed; run the command again\n",
+                 signal_name(e.signal).c_str(), options.restart_file.c_str(),
+                 options.out_dir.c_str());
+    return exit_code_for_signal(e.signal);
+  } catch (const std::runtime_error& e) {
+    print_error(e.what());  // names the file, and the field of a damaged one
+    return kExitBadInput;
+  }
+  return kExitOk;
+}
+
 int run_impact(const ImpactOptions& options) {
   // First: a signal during the set-up also ends the run cleanly (after its first step).
   const InterruptGuard interrupts;
@@ -270,12 +292,7 @@ int run_impact(const ImpactOptions& options) {
   const MemoryBudget memory = check_run_memory(config, available_memory_mb());
   std::optional<Checkpoint> checkpoint;
   if (!options.restart_file.empty()) {
-    try {
-      checkpoint = read_checkpoint(options.restart_file);
-    } catch (const std::runtime_error& e) {
-      print_error(e.what());  // names the file, and the field of a damaged one
-      return kExitBadInput;
-    }
+    if (const int code = read_restart_checkpoint(options, checkpoint); code != kExitOk) return code;
     check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
                              options.restart_file);
   }

@@ -312,6 +312,44 @@ TEST(Cli, RestartRefusesADamagedCheckpoint) {
   EXPECT_FALSE(fs::exists(dir / "second"));
 }
 
+fs::path library_crash(const std::string& name) {
+  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+}
+
+/// Exit 2 and one line "ehlsim: error: <prefix>the NetCDF/HDF5 library
+/// crashed reading it (SIGSEGV): the file is damaged"; AddressSanitizer (the
+/// sanitizer build) sees HDF5's bad memcpy first and ends the child with exit
+/// status 1 instead.
+void expect_library_crash(const Result& r, const std::string& prefix) {
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.out, "");
+  const std::string crashed =
+      "ehlsim: error: " + prefix + "the NetCDF/HDF5 library crashed reading it (";
+  const std::string damaged = "): the file is damaged\n";
+  ASSERT_TRUE(r.err.starts_with(crashed) && r.err.ends_with(damaged)) << r.err;
+  const std::string how =
+      r.err.substr(crashed.size(), r.err.size() - crashed.size() - damaged.size());
+  EXPECT_TRUE(how == "SIGSEGV" || how == "exit status 1") << r.err;
+}
+
+TEST(Cli, FilesHdf5CrashesOnAreBadInputNotACrash) {
+  // HDF5 1.10.8 segfaults in H5HG_read on these (docs/validation.md): before,
+  // both commands died with exit 139; the child process that reads first dies now.
+  TempDir dir;
+  const fs::path checkpoint = library_crash("checkpoint-v4-hdf5-H5HG_read-segv.nc");
+  expect_library_crash(tiny_run(dir / "run", "--restart " + quote(checkpoint.string())),
+                       "cannot read checkpoint '" + checkpoint.string() + "': ");
+  EXPECT_FALSE(fs::exists(dir / "run"));
+
+  const fs::path run = dir / "finished";
+  fs::create_directories(run);
+  write_file(run / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  fs::copy_file(library_crash("fields-hdf5-H5HG_read-segv.nc"), run / "fields.nc");
+  expect_library_crash(ehlsim("spike --quiet " + quote(run.string())),
+                       "cannot read '" + (run / "fields.nc").string() + "': ");
+  EXPECT_FALSE(fs::exists(run / "spike_snapshots.csv"));
+}
+
 TEST(Cli, BadSpikeKeys) {
   expect_bad_input(
       ehlsim("impact --set spike.filter=median"),

@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -34,6 +36,7 @@
 #include "io/FieldReader.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Interrupt.hpp"
+#include "io/IsolatedRead.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
@@ -1294,6 +1297,180 @@ TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
 }
 
 // ---------------------------------------------------------------------------
+// Untrusted files read in a child process first (io/IsolatedRead.hpp)
+// ---------------------------------------------------------------------------
+
+fs::path library_crash(const std::string& name) {
+  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+}
+
+std::string untrusted_checkpoint_error(const fs::path& path) {
+  return read_error([&] { (void)read_untrusted_checkpoint(path); });
+}
+
+std::string untrusted_fields_error(const fs::path& path) {
+  return read_error([&] {
+    pre_read_fields_in_child(path);
+    const FieldReader reader(path);
+  });
+}
+
+/// A short bound for the reads that must time out (a hang is a hang however long).
+constexpr std::chrono::milliseconds kShortBound{500};
+
+/// `message` is "<prefix>the NetCDF/HDF5 library crashed reading it (SIGSEGV):
+/// the file is damaged"; AddressSanitizer (the sanitizer build) sees the bad
+/// memcpy first and ends the child with exit status 1 instead.
+void expect_library_crash(const std::string& message, const std::string& prefix) {
+  const std::string crashed = prefix + "the NetCDF/HDF5 library crashed reading it (";
+  const std::string damaged = "): the file is damaged";
+  ASSERT_TRUE(message.starts_with(crashed) && message.ends_with(damaged)) << message;
+  const std::string how =
+      message.substr(crashed.size(), message.size() - crashed.size() - damaged.size());
+  EXPECT_TRUE(how == "SIGSEGV" || how == "exit status 1") << message;
+}
+
+/// The pid a child wrote into `file`.
+pid_t pid_in(const fs::path& file) {
+  std::ifstream in(file);
+  pid_t pid = -1;
+  in >> pid;
+  return pid;
+}
+
+/// Whether process `pid` is gone (reaped, not a zombie).
+bool process_is_gone(pid_t pid) { return kill(pid, 0) != 0 && errno == ESRCH; }
+
+TEST(IsolatedRead, AChildThatReadsOrFailsLeavesTheVerdictToTheCaller) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  ::testing::internal::CaptureStderr();
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { std::fputs("noise\n", stderr); }));
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { throw std::runtime_error("damaged"); }));
+  EXPECT_NO_THROW(pre_read_in_child(path, "read", [] { throw 42; }));
+  EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");  // the child says nothing
+}
+
+TEST(IsolatedRead, AChildThatCrashesNamesTheFileAndHow) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const std::string prefix = "cannot read checkpoint '" + path.string() + "': ";
+  EXPECT_EQ(read_error([&] { pre_read_in_child(path, "read checkpoint", [] { std::abort(); }); }),
+            prefix + "the NetCDF/HDF5 library crashed reading it (SIGABRT): the file is damaged");
+  // An exit status the child never gives itself: a sanitizer's report.
+  EXPECT_EQ(
+      read_error([&] { pre_read_in_child(path, "read checkpoint", [] { _exit(1); }); }),
+      prefix + "the NetCDF/HDF5 library crashed reading it (exit status 1): the file is damaged");
+}
+
+TEST(IsolatedRead, AChildThatDoesNotEndInTimeIsKilled) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const fs::path pid_file = dir / "child.pid";
+  const auto start = std::chrono::steady_clock::now();
+  const std::string message = read_error([&] {
+    pre_read_in_child(
+        path, "read",
+        [&] {
+          std::ofstream(pid_file) << getpid();
+          for (;;) pause();
+        },
+        std::chrono::seconds(2));  // long enough for the child to write its pid
+  });
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  EXPECT_EQ(message, "cannot read '" + path.string() +
+                         "': the NetCDF/HDF5 library did not finish reading it in 2 s (it loops "
+                         "for ever on some damaged files; the read was stopped): the file is "
+                         "damaged");
+  EXPECT_TRUE(process_is_gone(pid_in(pid_file)));
+  // The bound of the commands: 30 s, and more for a larger file.
+  EXPECT_EQ(pre_read_bound(0), std::chrono::seconds(30));
+  EXPECT_GT(pre_read_bound(std::uintmax_t{1} << 30), pre_read_bound(std::uintmax_t{1} << 20));
+}
+
+TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
+  TempDir dir;
+  const fs::path path = write_file(dir / "any.nc", "");
+  const fs::path pid_file = dir / "child.pid";
+  {
+    const InterruptGuard interrupts;
+    try {
+      // The child signals its parent, as a Ctrl-C would, and then hangs.
+      pre_read_in_child(path, "read", [&] {
+        std::ofstream(pid_file) << getpid();
+        kill(getppid(), SIGTERM);
+        for (;;) pause();
+      });
+      FAIL() << "the pre-read ignored SIGTERM";
+    } catch (const PreReadInterrupted& e) {
+      EXPECT_EQ(e.signal, SIGTERM);
+    }
+    EXPECT_TRUE(process_is_gone(pid_in(pid_file)));
+  }
+  const InterruptGuard clear;  // the flag outlives a guard: no later test may see it
+}
+
+TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
+  // The size of a global-heap object of a DIMENSION_LIST set to 1.7e18: H5HG_read's memcpy.
+  const fs::path checkpoint = library_crash("checkpoint-v4-hdf5-H5HG_read-segv.nc");
+  expect_library_crash(untrusted_checkpoint_error(checkpoint),
+                       "cannot read checkpoint '" + checkpoint.string() + "': ");
+  const fs::path fields = library_crash("fields-hdf5-H5HG_read-segv.nc");
+  expect_library_crash(untrusted_fields_error(fields), "cannot read '" + fields.string() + "': ");
+  // The first object of the global heap zeroed: HDF5's heap parser loops for ever.
+  const std::string loops =
+      "': the NetCDF/HDF5 library did not finish reading it in 0.5 s (it loops for ever on some "
+      "damaged files; the read was stopped): the file is damaged";
+  const fs::path looping_checkpoint = library_crash("checkpoint-hdf5-H5HG-heap-loop.nc");
+  EXPECT_EQ(read_error([&] {
+              pre_read_in_child(
+                  looping_checkpoint, "read checkpoint",
+                  [&] { (void)read_checkpoint(looping_checkpoint); }, kShortBound);
+            }),
+            "cannot read checkpoint '" + looping_checkpoint.string() + loops);
+  const fs::path looping_fields = library_crash("fields-hdf5-H5HG-heap-loop.nc");
+  EXPECT_EQ(read_error([&] {
+              pre_read_in_child(
+                  looping_fields, "read", [&] { const FieldReader reader(looping_fields); },
+                  kShortBound);
+            }),
+            "cannot read '" + looping_fields.string() + loops);
+}
+
+TEST(IsolatedRead, OrdinaryDamageGivesTheReadersOwnMessage) {
+  TempDir dir;
+  const fs::path root(EHLSIM_SOURCE_DIR);
+  std::vector<fs::path> checkpoints = {dir / "missing.nc", dir.path(),
+                                       library_crash("checkpoint-hdf5-H5HG_read-segv.nc")};
+  std::vector<fs::path> fields = {dir / "missing.nc", dir.path()};
+  for (const auto& entry :
+       fs::directory_iterator(root / "tests" / "fuzz-regressions" / "checkpoint"))
+    checkpoints.push_back(entry.path());
+  for (const auto& entry : fs::directory_iterator(root / "tests" / "fuzz-corpus" / "checkpoint"))
+    checkpoints.push_back(entry.path());
+  for (const auto& entry : fs::directory_iterator(root / "tests" / "fuzz-regressions" / "fields"))
+    fields.push_back(entry.path());
+  for (const auto& entry : fs::directory_iterator(root / "tests" / "fuzz-corpus" / "fields"))
+    fields.push_back(entry.path());
+  const fs::path damaged = dir / "checkpoint.nc";
+  write_checkpoint(damaged, plausible_state(small_case_parameters()), small_case_parameters());
+  ehlsim::testing::rewrite_attribute(damaged, "T", std::numeric_limits<double>::quiet_NaN());
+  checkpoints.push_back(damaged);
+  int damaged_files = 0;
+  for (const fs::path& path : checkpoints) {
+    const std::string expected = checkpoint_error(path);
+    damaged_files += expected.empty() ? 0 : 1;
+    EXPECT_EQ(untrusted_checkpoint_error(path), expected) << path;
+  }
+  for (const fs::path& path : fields) {
+    const std::string expected = fields_error(path);
+    damaged_files += expected.empty() ? 0 : 1;
+    EXPECT_EQ(untrusted_fields_error(path), expected) << path;
+  }
+  EXPECT_GE(damaged_files, 14);
+}
+
+// ---------------------------------------------------------------------------
 // Progress line
 // ---------------------------------------------------------------------------
 
@@ -1840,6 +2017,7 @@ TEST(Interrupt, ASignalSetsTheFlagInsteadOfEndingTheProcess) {
   EXPECT_EQ(exit_code_for_signal(SIGTERM), 143);
   EXPECT_EQ(exit_code_for_signal(SIGHUP), 129);
   EXPECT_EQ(signal_name(SIGHUP), "SIGHUP");
+  EXPECT_EQ(signal_name(SIGSEGV), "SIGSEGV");  // a child's crash (io/IsolatedRead.hpp)
   {
     const InterruptGuard guard;
     const StopOnSignal stop;

@@ -17,17 +17,20 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "io/Checkpoint.hpp"
@@ -275,12 +278,13 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});
 }
 
-/// A tmpfs of a few hundred kB, unmounted at the end (mount needs root).
+/// A tmpfs of a few hundred kB (read-only with MS_RDONLY), unmounted at the
+/// end (mount needs root).
 class SmallTmpfs {
  public:
-  explicit SmallTmpfs(const fs::path& at) : at_(at) {
+  explicit SmallTmpfs(const fs::path& at, unsigned long flags = 0) : at_(at) {
     fs::create_directories(at_);
-    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", 0, "size=200k") == 0;
+    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", flags, "size=200k") == 0;
   }
   ~SmallTmpfs() {
     if (mounted_) umount(at_.c_str());
@@ -309,6 +313,41 @@ TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work / "disk"), std::set<std::string>{"run"});
+}
+
+/// A place no run can write into (issue 10: "permissions"): a read-only
+/// tmpfs for root, whom file permissions do not stop, else a directory without
+/// write permission.  Every command ends with exit 1 and one line naming the
+/// path and the reason, and leaves nothing.
+TEST(Lifecycle, AnUnwritablePlaceEndsWithOneLineNamingIt) {
+  TempDir work;
+  const fs::path place = work / "locked";
+  std::optional<SmallTmpfs> read_only;
+  std::string reason = "Permission denied";
+  if (geteuid() == 0) {
+    read_only.emplace(place, MS_RDONLY);
+    if (!read_only->mounted()) GTEST_SKIP() << "mount -t tmpfs is not permitted here";
+    reason = "Read-only file system";
+  } else {
+    fs::create_directories(place);
+    fs::permissions(place, fs::perms::owner_read | fs::perms::owner_exec);
+  }
+  const std::string lock = "cannot create lock file '" + (place / ".run.lock").string() + "': ";
+  const std::string parent = "cannot create '" + (place / "sub").string() +
+                             "', the parent directory of --out '" +
+                             (place / "sub" / "run").string() + "': ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"impact " + kTiny + "--set time.T_end=0.2 --out " + quote((place / "run").string()), lock},
+      {"impact " + kTiny + "--out " + quote((place / "sub" / "run").string()), parent},
+      {"rolling --quiet --set grid.points=33 --out " + quote((place / "run").string()), lock},
+      {"study --grid 33 --no-plots --out " + quote((place / "run").string()), lock}};
+  for (const auto& [args, message] : cases) {
+    const Result r = ehlsim(args);
+    EXPECT_EQ(r.exit_code, 1) << args;
+    EXPECT_EQ(r.err, "ehlsim: error: " + message + reason + "\n") << args;
+  }
+  EXPECT_TRUE(fs::is_empty(place));
+  if (!read_only) fs::permissions(place, fs::perms::owner_all);  // for TempDir's removal
 }
 
 /// A failed run keeps its last checkpoint (named in the message) and does not
@@ -715,6 +754,66 @@ TEST(Lifecycle, SpikeSignalledAnyTimeLeavesOneCompleteSet) {
         << delay_ms;
   }
   EXPECT_GT(interrupted, 0);  // the signal right after the lock comes before the swap
+}
+
+/// The child processes of `pid` (none once it has ended).
+std::vector<pid_t> children_of(pid_t pid) {
+  const std::string task = std::to_string(pid);
+  std::ifstream in("/proc/" + task + "/task/" + task + "/children");
+  std::vector<pid_t> children;
+  for (pid_t child = 0; in >> child;) children.push_back(child);
+  return children;
+}
+
+/// Waits until `c` has a child process (its read of an untrusted file, done in
+/// a child first: io/IsolatedRead.hpp) and returns its pid; -1 after kPatience.
+pid_t wait_for_reader(const Child& c) {
+  const auto until = std::chrono::steady_clock::now() + kPatience;
+  while (std::chrono::steady_clock::now() < until && !has_ended(c)) {
+    if (const std::vector<pid_t> children = children_of(c.pid); !children.empty())
+      return children.front();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return -1;
+}
+
+fs::path library_crash(const std::string& name) {
+  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+}
+
+/// HDF5 loops for ever on these files, and before, SIGTERM and SIGINT only set
+/// the flag a time step looks at: kill -9 alone ended the command.
+TEST(Lifecycle, ASignalWhileHdf5HangsOnAFileEndsTheCommandAndItsReader) {
+  TempDir work;
+  const fs::path checkpoint = library_crash("checkpoint-hdf5-H5HG-heap-loop.nc");
+  const fs::path out = work / "out";
+  const fs::path run = work / "run";
+  fs::create_directories(run);
+  std::ofstream(run / "run.json") << R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})";
+  fs::copy_file(library_crash("fields-hdf5-H5HG-heap-loop.nc"), run / "fields.nc");
+  const std::vector<std::tuple<std::vector<std::string>, int, std::string>> cases = {
+      {{"impact", "--quiet", "--set", "grid.points=9", "--set", "solver.coarsest_points=5",
+        "--restart", checkpoint.string(), "--out", out.string()},
+       SIGTERM,
+       "ehlsim: interrupted by SIGTERM while checkpoint '" + checkpoint.string() +
+           "' was read, before the run started: '" + out.string() +
+           "' was not changed; run the command again\n"},
+      {{"spike", run.string()},
+       SIGINT,
+       "ehlsim: interrupted by SIGINT: the spike files in '" + run.string() +
+           "' were not changed\n"}};
+  for (const auto& [args, signal, message] : cases) {
+    const Child c = start(args, work / "command");
+    const pid_t reader = wait_for_reader(c);
+    ASSERT_GT(reader, 0) << args.front();
+    kill(c.pid, signal);
+    const Result r = result_of(c);
+    EXPECT_EQ(r.exit_code, 128 + signal) << args.front();
+    EXPECT_EQ(r.err, message);
+    EXPECT_TRUE(kill(reader, 0) != 0 && errno == ESRCH) << "the reader lives on";
+  }
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"command.err", "command.out", "run"}));
+  EXPECT_EQ(names_in(run), (std::set<std::string>{"fields.nc", "run.json"}));
 }
 
 TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {

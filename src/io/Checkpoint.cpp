@@ -15,6 +15,7 @@
 
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
+#include "io/IsolatedRead.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 
@@ -411,6 +412,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
         path.string()));
   }
   return c;
+}
+
+Checkpoint read_untrusted_checkpoint(const std::filesystem::path& path) {
+  pre_read_in_child(path, "read checkpoint", [&path] { (void)read_checkpoint(path); });
+  return read_checkpoint(path);
 }
 
 void check_restart_compatible(const nlohmann::json& checkpoint_parameters,

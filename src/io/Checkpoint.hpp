@@ -36,6 +36,12 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 /// cannot be read or is not an ehlsim checkpoint.
 [[nodiscard]] Checkpoint read_checkpoint(const std::filesystem::path& path);
 
+/// read_checkpoint of a file from outside this process (`ehlsim impact
+/// --restart`): read in a child process first (io/IsolatedRead.hpp), so that
+/// a file HDF5 crashes or hangs on gives a std::runtime_error naming it too.
+/// Throws PreReadInterrupted after a signal during that read.
+[[nodiscard]] Checkpoint read_untrusted_checkpoint(const std::filesystem::path& path);
+
 /// A restart continues the same case: every effective parameter must be the
 /// checkpoint's, except those of the solver (not solver.face_mean, which
 /// changes the discrete problem), the output, the spike analysis and

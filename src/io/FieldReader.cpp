@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "io/IsolatedRead.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 
@@ -91,6 +92,13 @@ Field FieldReader::pressure(std::size_t index) const {
   const std::array<std::size_t, 3> count = {1, n, n};
   check(nc_get_vara_double(ncid_, var_P_, start.data(), count.data(), P.data()), "variable P");
   return P;
+}
+
+void pre_read_fields_in_child(const std::filesystem::path& path) {
+  pre_read_in_child(path, "read", [&path] {
+    const FieldReader reader(path);
+    for (std::size_t k = 0; k < reader.times().size(); ++k) (void)reader.pressure(k);
+  });
 }
 
 }  // namespace ehlsim

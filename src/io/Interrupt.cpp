@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <cstring>
 
 namespace ehlsim {
 
@@ -31,16 +32,9 @@ struct sigaction action_with(void (*handler)(int)) {
 int exit_code_for_signal(int signal_number) { return kExitSignalBase + signal_number; }
 
 std::string signal_name(int signal_number) {
-  switch (signal_number) {
-    case SIGINT:
-      return "SIGINT";
-    case SIGTERM:
-      return "SIGTERM";
-    case SIGHUP:
-      return "SIGHUP";
-    default:
-      return fmt::format("signal {}", signal_number);
-  }
+  const char* abbreviation = sigabbrev_np(signal_number);  // "INT", "SEGV", ...
+  return abbreviation != nullptr ? fmt::format("SIG{}", abbreviation)
+                                 : fmt::format("signal {}", signal_number);
 }
 
 InterruptGuard::InterruptGuard() {

@@ -17,7 +17,7 @@ namespace ehlsim {
 /// Exit code of a run stopped by `signal_number`: 128 + the signal, as shells do.
 [[nodiscard]] int exit_code_for_signal(int signal_number);
 
-/// "SIGINT", "SIGTERM", "SIGHUP" (else "signal N").
+/// "SIGINT", "SIGTERM", "SIGSEGV", ... ("signal N" for a number without a name).
 [[nodiscard]] std::string signal_name(int signal_number);
 
 class InterruptGuard {

@@ -3,12 +3,14 @@
 #include <fmt/format.h>
 
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
+#include "io/IsolatedRead.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
@@ -70,6 +72,21 @@ double run_parameter(const nlohmann::json& run, const char* section, const char*
   }
 }
 
+/// Opens the fields.nc of a run, read in a child process first (a file HDF5
+/// crashes or hangs on is named like any other damaged one).  Throws
+/// ConfigError for a file that cannot be read, RunInterrupted for a signal
+/// during the child's read (the analysis has not started).
+void open_fields(const std::filesystem::path& path, std::optional<FieldReader>& fields) {
+  try {
+    pre_read_fields_in_child(path);
+    fields.emplace(path);
+  } catch (const PreReadInterrupted&) {
+    throw RunInterrupted(0, std::numeric_limits<double>::quiet_NaN());
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(e.what());
+  }
+}
+
 /// The analysis of `run_dir` written into the directory `staging`.
 RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
                                  const std::filesystem::path& staging,
@@ -81,11 +98,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
                              run_parameter(run, "time", "V0", run_file));
 
   std::optional<FieldReader> fields;
-  try {
-    fields.emplace(run_dir / RunOutput::kFieldsFile);
-  } catch (const std::runtime_error& e) {
-    throw ConfigError(e.what());
-  }
+  open_fields(run_dir / RunOutput::kFieldsFile, fields);
 
   RunAnalysisReport report;
   report.files = {staging / kSpikeSnapshotsFile, staging / kSpikeProfilesFile,
