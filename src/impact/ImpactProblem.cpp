@@ -39,12 +39,13 @@ constexpr double kFurtherRetryDamping = 0.5;
 constexpr int kMaxSplitDepth = 2;
 /// The attempt from which on a step brings the deformation up to date before
 /// each colour of a sweep (once per sweep before it: section 7 of
-/// docs/model.md).  The last retry only: on the 1025^2 default case before
+/// docs/model.md): the last retry only.  On the 1025^2 default case, before
 /// each colour from the second retry on cost 140 work units per step in the
 /// rebound (T = 3.5-3.6) and 283 in the pocket collapse, against 105 and 205
-/// from the third, with the same cycles per step and steps retried, and the
-/// case maps on 65^2 and 129^2 ended alike (docs/performance.md).
-constexpr int kFirstAttemptWithDeformationEachColour = 3;
+/// in the last retry only, with the same cycles per step and steps retried,
+/// and the case maps on 65^2 and 129^2 ended alike; never before each colour,
+/// M = 20, L = 20 on 129^2 failed at T = 3.773 (docs/performance.md).
+constexpr int kFirstAttemptWithDeformationEachColour = kMaxRetries;
 
 /// The factor on both under-relaxation parameters in attempt `attempt` of a
 /// step: 1, then solver.retry_damping (0.8), then half of that at each
