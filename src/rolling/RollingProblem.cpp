@@ -104,6 +104,16 @@ Lubricant lubricant_of(const RollingConfig& c) {
   lub.alpha_bar = c.alpha_bar;
   return lub;
 }
+
+/// The central film of the Nijenbanning-Venner-Moes formula in Hertz units;
+/// for rigid bodies the formula without its elastic terms (the full one puts
+/// H0 four times too high at M = 10, L = 0).
+double formula_central_film(const RollingConfig& c) {
+  const double moes =
+      c.elastic ? nvm_central_film(c.M, c.L, c.D) : nvm_rigid_central_film(c.M, c.L, c.D);
+  return moes_to_hertz_film(moes, c.M);
+}
+
 }  // namespace
 
 Grid2D RollingProblem::grid_of(const RollingConfig& c) {
@@ -173,12 +183,7 @@ void RollingProblem::Impl::start_from_hertz() {
   // H0 puts the central film of the Hertz pressure at the formula's value.
   set_h0(0.0);
   level.op().update_coefficients(P);
-  // Rigid bodies: the formula without its elastic terms (the full one puts
-  // H0 four times too high at M = 10, L = 0).
-  const double hc_formula =
-      moes_to_hertz_film(cfg.elastic ? nvm_central_film(cfg.M, cfg.L, cfg.D)
-                                     : nvm_rigid_central_film(cfg.M, cfg.L, cfg.D),
-                         cfg.M);
+  const double hc_formula = formula_central_film(cfg);
   set_h0(hc_formula - value_at(level.op().film(), g, 0.0, 0.0));
 }
 
@@ -317,7 +322,7 @@ constexpr double kRigidMinMeshes = 3.0;
 /// Why a rigid run failed, for its message: its film unresolved, or a
 /// pressure-dependent viscosity (no rigid case with L > 0 has converged).
 std::string rigid_hint(const RollingConfig& c, double mesh) {
-  const double hc = moes_to_hertz_film(nvm_rigid_central_film(c.M, c.L, c.D), c.M);
+  const double hc = formula_central_film(c);
   const double meshes = std::sqrt(2.0 * hc) / mesh;
   if (meshes < kRigidMinMeshes)
     return fmt::format(
