@@ -170,60 +170,77 @@ void LineRelaxation::apply_distributive_changes(Field& P) const {
 
 void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
                                 LineWork& lw) const {
-  // Point a = first..n-2 of the line is line_point(direction, line, a), row
-  // a - first of the line system.  The kernel is symmetric, K(d, 0) = K(0, d),
-  // so the band of the elastic term is the same for both directions.
-  const bool along_x = direction == LineDirection::X;
-  const Grid2D& grid = op_.grid();
-  const int n = grid.n;
-  const int first = grid.first_interior();
-  const int m = n - 1 - first;
-  const double h2 = grid.h() * grid.h();
-  const bool elastic = op_.elastic();
-
-  lw.coupled_gauss_seidel = 0;
-  lw.distributive = 0;
-  for (int r = 0; r < m; ++r) {
-    const auto [i, j] = line_point(direction, line, r + first);
-    const ReynoldsOperator::Faces faces = op_.faces_at(i, j);
-    lw.cw[r] = (along_x ? faces.west : faces.south) / h2;
-    lw.ce[r] = (along_x ? faces.east : faces.north) / h2;
-    lw.cs[r] = (along_x ? faces.south : faces.west) / h2;
-    lw.cn[r] = (along_x ? faces.north : faces.east) / h2;
-    const double flow = lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r];
-    // Distributive changes also move the four neighbours: next to a cavitated
-    // point they would fight the projection, so such points use Gauss-Seidel.
-    // Only pressurized points can be distributive or elastically coupled.
-    const double elastic_bound =
-        elastic && P(i, j) > 0.0 ? settings_.switch_ratio * op_.elastic_diagonal(i, j) : 0.0;
-    lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) && flow < elastic_bound;
-    const auto images = static_cast<long>(grid.multiplicity(i) * grid.multiplicity(j));
-    if (lw.is_jacobi[r]) {
-      lw.distributive += images;
-    } else if (P(i, j) > 0.0 && flow < kCoupledGaussSeidelFactor * elastic_bound) {
-      lw.coupled_gauss_seidel += images;
-    }
-    lw.rhs[r] = f(i, j) - op_.apply_at(P, i, j, faces);
-  }
-
-  // Points with P = 0 whose residual would lower the pressure stay at 0 (the
-  // projection).  A line of such points only (the cavitated region, a large
-  // part of the domain in contact) has nothing to solve.
-  RowRange rows{m, -1};
-  for (int r = 0; r < m; ++r) {
-    const auto [i, j] = line_point(direction, line, r + first);
-    const bool fixed = P(i, j) <= 0.0 && lw.rhs[r] >= 0.0;
-    lw.fixed_change[r] = fixed ? 0.0 : std::numeric_limits<double>::quiet_NaN();
-    if (!fixed) rows = {std::min(rows.first, r), r};
-  }
+  const RowRange rows = line_residuals(P, f, line, direction, lw);
   // The held points at the ends of the line need no system: their changes are
   // zero, so the rows between decouple from them (the same solution to the
   // bit as with them in; on the default case 28 % of the rows).
+  const int m = static_cast<int>(lw.rhs.size());
   std::fill(lw.rhs.begin(), lw.rhs.begin() + std::min(rows.first, m), 0.0);
   std::fill(lw.rhs.begin() + rows.last + 1, lw.rhs.end(), 0.0);
   if (rows.first > rows.last) return;
   assemble_line_jacobian(line, direction, rows, lw);
   solve_projected(P, line, direction, rows, lw);
+}
+
+LineRelaxation::RowRange LineRelaxation::line_residuals(const Field& P, const Field& f, int line,
+                                                        LineDirection direction,
+                                                        LineWork& lw) const {
+  // Point a = first..n-2 of the line is line_point(direction, line, a), row
+  // a - first of the line system.
+  const int first = op_.grid().first_interior();
+  const int m = static_cast<int>(lw.rhs.size());
+  lw.coupled_gauss_seidel = 0;
+  lw.distributive = 0;
+  // Points with P = 0 whose residual would lower the pressure stay at 0 (the
+  // projection): held, with no row of their own in the system.  A line of
+  // such points only (the cavitated region, a large part of the domain in
+  // contact) has nothing to solve.
+  RowRange rows{m, -1};
+  for (int r = 0; r < m; ++r) {
+    const auto [i, j] = line_point(direction, line, r + first);
+    // In a cavitated neighbourhood the residual is known without the faces,
+    // and they are needed only if the point is not held.
+    const bool quick = is_cavitated_around(P, i, j);
+    if (quick) lw.rhs[r] = f(i, j) - op_.cavitated_apply_at(i, j);
+    if (!quick || lw.rhs[r] < 0.0) set_line_row(P, f, i, j, direction, r, lw);
+    const bool held = P(i, j) <= 0.0 && lw.rhs[r] >= 0.0;
+    lw.fixed_change[r] = held ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+    if (held) {
+      lw.is_jacobi[r] = 0;
+    } else {
+      rows = {std::min(rows.first, r), r};
+    }
+  }
+  return rows;
+}
+
+void LineRelaxation::set_line_row(const Field& P, const Field& f, int i, int j,
+                                  LineDirection direction, int r, LineWork& lw) const {
+  // The kernel is symmetric, K(d, 0) = K(0, d), so the band of the elastic
+  // term is the same for both directions.
+  const bool along_x = direction == LineDirection::X;
+  const Grid2D& grid = op_.grid();
+  const double h2 = grid.h() * grid.h();
+  const bool elastic = op_.elastic();
+  const ReynoldsOperator::Faces faces = op_.faces_at(i, j);
+  lw.cw[r] = (along_x ? faces.west : faces.south) / h2;
+  lw.ce[r] = (along_x ? faces.east : faces.north) / h2;
+  lw.cs[r] = (along_x ? faces.south : faces.west) / h2;
+  lw.cn[r] = (along_x ? faces.north : faces.east) / h2;
+  const double flow = lw.cw[r] + lw.ce[r] + lw.cs[r] + lw.cn[r];
+  // Distributive changes also move the four neighbours: next to a cavitated
+  // point they would fight the projection, so such points use Gauss-Seidel.
+  // Only pressurized points can be distributive or elastically coupled.
+  const double elastic_bound =
+      elastic && P(i, j) > 0.0 ? settings_.switch_ratio * op_.elastic_diagonal(i, j) : 0.0;
+  lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) && flow < elastic_bound;
+  const auto images = static_cast<long>(grid.multiplicity(i) * grid.multiplicity(j));
+  if (lw.is_jacobi[r]) {
+    lw.distributive += images;
+  } else if (P(i, j) > 0.0 && flow < kCoupledGaussSeidelFactor * elastic_bound) {
+    lw.coupled_gauss_seidel += images;
+  }
+  lw.rhs[r] = f(i, j) - op_.apply_at(P, i, j, faces);
 }
 
 double LineRelaxation::jacobian_entry(int r, int offset, bool jacobi_unknown,
@@ -283,6 +300,8 @@ void LineRelaxation::assemble_line_jacobian(int line, LineDirection direction, R
   A.clear_rows(rows.first, rows.last);
   RowTransport transport{direction};
   for (int r = rows.first; r <= rows.last; ++r) {
+    // A held row stays cleared: solve_projected replaces it.
+    if (!std::isnan(lw.fixed_change[r])) continue;
     const int p = r + first;
     const auto [i, j] = line_point(direction, line, p);
     const TransportTaps taps = op_.taps_at(i);

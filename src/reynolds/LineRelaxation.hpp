@@ -97,6 +97,14 @@ class LineRelaxation {
   struct RowRange {
     int first, last;
   };
+  /// The residuals of a line's points, and the face coefficients and kinds
+  /// of those not held at P = 0 (those held get fixed_change 0); returns the
+  /// rows between the first and the last point not held.
+  [[nodiscard]] RowRange line_residuals(const Field& P, const Field& f, int line,
+                                        LineDirection direction, LineWork& work) const;
+  /// Row r of a line system at point (i, j): its faces, its kind and its residual.
+  void set_line_row(const Field& P, const Field& f, int i, int j, LineDirection direction, int r,
+                    LineWork& work) const;
   /// The banded Jacobian of the line's residuals with respect to the changes.
   void assemble_line_jacobian(int line, LineDirection direction, RowRange rows,
                               LineWork& work) const;

@@ -22,6 +22,14 @@ double point_residual(const ReynoldsOperator& op, const Field& P, const Field& f
   return constrained_residual(P(i, j), f(i, j) - op.apply_at(P, i, j));
 }
 
+/// |point_residual| / |dN/dP| of a point; a zero residual (a held cavitated
+/// point) is 0 without its diagonal.
+double scaled_point_residual(const ReynoldsOperator& op, const Field& P, const Field& f, int i,
+                             int j) {
+  const double residual = point_residual(op, P, f, i, j);
+  return residual == 0.0 ? 0.0 : std::abs(residual / op.diagonal_at(i, j));
+}
+
 /// The window's unknowns, numbered row by row; on a mirrored grid an index
 /// across an axis is its mirror image.
 struct WindowIndex {
@@ -183,7 +191,7 @@ double largest_scaled_residual(const ReynoldsOperator& op, const Field& P, const
   double largest = 0.0;
   for (int j = window.j0; j <= window.j1; ++j)
     for (int i = window.i0; i <= window.i1; ++i)
-      largest = std::max(largest, std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j)));
+      largest = std::max(largest, scaled_point_residual(op, P, f, i, j));
   return largest;
 }
 
@@ -195,8 +203,7 @@ Field scaled_residuals(const ReynoldsOperator& op, const Field& P, const Field& 
   Field scaled(grid);
 #pragma omp parallel for schedule(static) if (worth_threads(grid))
   for (int j = first; j < grid.n - 1; ++j)
-    for (int i = first; i < grid.n - 1; ++i)
-      scaled(i, j) = std::abs(point_residual(op, P, f, i, j) / op.diagonal_at(i, j));
+    for (int i = first; i < grid.n - 1; ++i) scaled(i, j) = scaled_point_residual(op, P, f, i, j);
   return scaled;
 }
 

