@@ -92,12 +92,6 @@ void LineRelaxation::relax(Field& P, const Field& f, int sweeps) {
 }
 
 void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
-  const Grid2D& grid = op_.grid();
-  const int n = grid.n;
-  const int first = grid.first_interior();
-  long gs = 0, jac = 0;
-  const double w_gs = settings_.omega_gauss_seidel * damping_;
-  const bool threaded = worth_threads(grid);
   // Zebra order: the lines of one colour are independent given the other
   // colour, so they are relaxed in parallel; the coefficients are brought up
   // to date before each colour, so each colour sees every change of the other
@@ -106,9 +100,8 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
   // settings_.deformation_each_colour asks for it, or when colour 0 had more
   // elastically coupled Gauss-Seidel points than distributive ones (they need
   // it, kCoupledGaussSeidelFactor); else colour 1 sees colour 0's elastic
-  // effect from the next sweep on.  Colour 0 is the odd lines: on a mirrored
-  // grid, whose index 0 is the full grid's even centre line, the lines keep
-  // the colours they have on the full grid.
+  // effect from the next sweep on.
+  SweepStats stats;
   bool refresh_deformation = true;
   for (int colour = 0; colour < 2; ++colour) {
     if (refresh_deformation) {
@@ -116,70 +109,94 @@ void LineRelaxation::sweep(Field& P, const Field& f, LineDirection direction) {
     } else {
       op_.update_coefficients_keeping_deformation(P);
     }
-    jacobi_change_.fill(0.0);
-    long colour_jac = 0, coupled = 0, distributive = 0;
-    const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
-#pragma omp parallel reduction(+ : gs, colour_jac, coupled, distributive) if (threaded)
-    {
-      LineWork line_work(n - 1 - first);
-      // Lines round-robin: on the quadrant the contact (the costly lines)
-      // lies at one end, and blocks of lines would give it all to one thread.
-#pragma omp for schedule(static, 1)
-      for (int line = first_line; line < n - 1; line += 2) {
-        relax_line(P, f, line, direction, line_work);
-        coupled += line_work.coupled_gauss_seidel;
-        distributive += line_work.distributive;
-        for (int a = first; a < n - 1; ++a) {
-          const auto [i, j] = line_point(direction, line, a);
-          const double change = line_work.rhs[a - first];
-          if (line_work.is_jacobi[a - first]) {
-            jacobi_change_(i, j) = change;
-            ++colour_jac;
-          } else {
-            P(i, j) = std::max(0.0, P(i, j) + w_gs * change);
-            ++gs;
-          }
-        }
-      }
-    }
-    jac += colour_jac;
+    const ColourResult result = relax_colour(P, f, direction, colour);
+    stats.gauss_seidel_points += result.gauss_seidel;
+    stats.jacobi_points += result.jacobi;
     // Integer counts: the same choice for every thread count.
-    refresh_deformation = settings_.deformation_each_colour || coupled > distributive;
-    if (colour_jac > 0) apply_distributive_changes(P);
+    refresh_deformation =
+        settings_.deformation_each_colour || result.coupled_gauss_seidel > result.distributive;
+    if (result.jacobi > 0) apply_distributive_changes(P, result.jacobi_box);
   }
-  stats_ = {gs, jac};
+  stats_ = stats;
 }
 
-void LineRelaxation::apply_distributive_changes(Field& P) const {
-  // delta at the point, -delta/4 at each neighbour (across a symmetry axis the
-  // neighbour is the mirror image, whose change equals the point's own).
+LineRelaxation::ColourResult LineRelaxation::relax_colour(Field& P, const Field& f,
+                                                          LineDirection direction, int colour) {
   const Grid2D& grid = op_.grid();
   const int n = grid.n;
   const int first = grid.first_interior();
+  const int m = n - 1 - first;
+  const double w_gs = settings_.omega_gauss_seidel * damping_;
+  long gs = 0, jac = 0, coupled = 0, distributive = 0;
+  int i0 = n, i1 = -1, j0 = n, j1 = -1;
+  // Colour 0 is the odd lines: on a mirrored grid, whose index 0 is the full
+  // grid's even centre line, the lines keep the colours they have on the
+  // full grid.
+  const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
+#pragma omp parallel reduction(+ : gs, jac, coupled, distributive) \
+    reduction(min : i0, j0) reduction(max : i1, j1) if (worth_threads(grid))
+  {
+    LineWork line_work(m);
+    // Lines round-robin: on the quadrant the contact (the costly lines)
+    // lies at one end, and blocks of lines would give it all to one thread.
+#pragma omp for schedule(static, 1)
+    for (int line = first_line; line < n - 1; line += 2) {
+      const RowRange rows = relax_line(P, f, line, direction, line_work);
+      coupled += line_work.coupled_gauss_seidel;
+      distributive += line_work.distributive;
+      // The held points beyond `rows` keep P = 0: Gauss-Seidel points without a change.
+      gs += m - std::max(0, rows.last - rows.first + 1);
+      for (int r = rows.first; r <= rows.last; ++r) {
+        const auto [i, j] = line_point(direction, line, r + first);
+        const double change = line_work.rhs[r];
+        if (line_work.is_jacobi[r]) {
+          jacobi_change_(i, j) = change;
+          i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
+          ++jac;
+        } else {
+          P(i, j) = std::max(0.0, P(i, j) + w_gs * change);
+          ++gs;
+        }
+      }
+    }
+  }
+  return {gs, jac, coupled, distributive, {i0, i1, j0, j1}};
+}
+
+void LineRelaxation::apply_distributive_changes(Field& P, PointBox box) {
+  // delta at the point, -delta/4 at each neighbour (across a symmetry axis the
+  // neighbour is the mirror image, whose change equals the point's own).  The
+  // changes reach one point beyond the box of the distributive points; the
+  // box is cleared after, for the next colour.
+  const Grid2D& grid = op_.grid();
+  const int first = grid.first_interior();
+  const int last = grid.n - 2;
   const double w = settings_.omega_jacobi * damping_;
-  const Field& d = jacobi_change_;
-#pragma omp parallel for schedule(static) if (worth_threads(grid))
-  for (int j = first; j < n - 1; ++j) {
-    for (int i = first; i < n - 1; ++i) {
+  Field& d = jacobi_change_;
+  const bool threaded = worth_threads(grid);
+#pragma omp parallel for schedule(static) if (threaded)
+  for (int j = std::max(first, box.j0 - 1); j <= std::min(last, box.j1 + 1); ++j) {
+    for (int i = std::max(first, box.i0 - 1); i <= std::min(last, box.i1 + 1); ++i) {
       const double change =
           d(i, j) - kDistribution * (d(i - 1, j) + d(i + 1, j) + d(i, j - 1) + d(i, j + 1));
       if (change != 0.0) P(i, j) = std::max(0.0, P(i, j) + w * change);
     }
   }
+#pragma omp parallel for schedule(static) if (threaded)
+  for (int j = box.j0; j <= box.j1; ++j)
+    for (int i = box.i0; i <= box.i1; ++i) d(i, j) = 0.0;
 }
 
-void LineRelaxation::relax_line(Field& P, const Field& f, int line, LineDirection direction,
-                                LineWork& lw) const {
-  const RowRange rows = line_residuals(P, f, line, direction, lw);
+LineRelaxation::RowRange LineRelaxation::relax_line(Field& P, const Field& f, int line,
+                                                    LineDirection direction, LineWork& lw) const {
   // The held points at the ends of the line need no system: their changes are
   // zero, so the rows between decouple from them (the same solution to the
   // bit as with them in; on the default case 28 % of the rows).
-  const int m = static_cast<int>(lw.rhs.size());
-  std::fill(lw.rhs.begin(), lw.rhs.begin() + std::min(rows.first, m), 0.0);
-  std::fill(lw.rhs.begin() + rows.last + 1, lw.rhs.end(), 0.0);
-  if (rows.first > rows.last) return;
+  const RowRange rows = line_residuals(P, f, line, direction, lw);
+  if (rows.first > rows.last) return rows;
   assemble_line_jacobian(line, direction, rows, lw);
   solve_projected(P, line, direction, rows, lw);
+  return rows;
 }
 
 LineRelaxation::RowRange LineRelaxation::line_residuals(const Field& P, const Field& f, int line,

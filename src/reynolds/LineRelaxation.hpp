@@ -85,18 +85,34 @@ class LineRelaxation {
 
  private:
   struct LineWork;
-  /// Applies the distributive changes of a colour (jacobi_change_) to P.
-  void apply_distributive_changes(Field& P) const;
-  /// Builds and solves the system of one line; leaves the kinds of its points
-  /// and their changes in `work`.
-  void relax_line(Field& P, const Field& f, int line, LineDirection direction,
-                  LineWork& work) const;
   /// The rows of a line system between its first and its last unknown: the
   /// points beyond them at either end are held at P = 0 (cavitated), and
   /// their rows and columns are left out of the system.
   struct RowRange {
     int first, last;
   };
+  /// The smallest box i0..i1 x j0..j1 of grid points holding a set of points
+  /// (empty: i0 > i1).
+  struct PointBox {
+    int i0, i1, j0, j1;
+  };
+  /// What the lines of one colour did: counts of the kinds of points
+  /// (LineWork), and the box of the distributive changes.
+  struct ColourResult {
+    long gauss_seidel, jacobi, coupled_gauss_seidel, distributive;
+    PointBox jacobi_box;
+  };
+  /// Relaxes the lines of one colour of a zebra sweep: the Gauss-Seidel
+  /// changes go into P, the distributive ones into jacobi_change_.
+  ColourResult relax_colour(Field& P, const Field& f, LineDirection direction, int colour);
+  /// Applies the distributive changes of a colour (jacobi_change_, nonzero
+  /// within `box` only) to P, and clears them.
+  void apply_distributive_changes(Field& P, PointBox box);
+  /// Builds and solves the system of one line; leaves the kinds of its points
+  /// and their changes in `work` for the rows it returns (beyond them the
+  /// points are held, without a change).
+  RowRange relax_line(Field& P, const Field& f, int line, LineDirection direction,
+                      LineWork& work) const;
   /// The residuals of a line's points, and the face coefficients and kinds
   /// of those not held at P = 0 (those held get fixed_change 0); returns the
   /// rows between the first and the last point not held.
