@@ -133,6 +133,8 @@ LineRelaxation::ColourResult LineRelaxation::relax_colour(Field& P, const Field&
   // grid's even centre line, the lines keep the colours they have on the
   // full grid.
   const int first_line = colour == 0 ? 1 : (first == 0 ? 0 : 2);
+  const std::vector<RowRange> candidates =
+      direction == LineDirection::Y ? y_line_candidates(P, f, first_line) : std::vector<RowRange>{};
 #pragma omp parallel reduction(+ : gs, jac, coupled, distributive) \
     reduction(min : i0, j0) reduction(max : i1, j1) if (worth_threads(grid))
   {
@@ -141,7 +143,8 @@ LineRelaxation::ColourResult LineRelaxation::relax_colour(Field& P, const Field&
     // lies at one end, and blocks of lines would give it all to one thread.
 #pragma omp for schedule(static, 1)
     for (int line = first_line; line < n - 1; line += 2) {
-      const RowRange rows = relax_line(P, f, line, direction, line_work);
+      const RowRange candidate_rows = candidates.empty() ? RowRange{0, m - 1} : candidates[line];
+      const RowRange rows = relax_line(P, f, line, direction, candidate_rows, line_work);
       coupled += line_work.coupled_gauss_seidel;
       distributive += line_work.distributive;
       // The held points beyond `rows` keep P = 0: Gauss-Seidel points without a change.
@@ -187,12 +190,45 @@ void LineRelaxation::apply_distributive_changes(Field& P, PointBox box) {
     for (int i = box.i0; i <= box.i1; ++i) d(i, j) = 0.0;
 }
 
+bool LineRelaxation::is_held_without_faces(const Field& P, const Field& f, int i, int j) const {
+  return is_cavitated_around(P, i, j) && f(i, j) - op_.cavitated_apply_at(i, j) >= 0.0;
+}
+
+std::vector<LineRelaxation::RowRange> LineRelaxation::y_line_candidates(const Field& P,
+                                                                        const Field& f,
+                                                                        int first_line) const {
+  // Row by row of the grid, each thread a block of the lines: along a Y line
+  // the points lie a grid row apart, and every point would read a new cache
+  // line and page of P, f, rho and H.
+  const Grid2D& grid = op_.grid();
+  const int n = grid.n;
+  const int first = grid.first_interior();
+  const int m = n - 1 - first;
+  std::vector<RowRange> ranges(static_cast<std::size_t>(n), RowRange{m, -1});
+  const int lines = (n - 1 - first_line + 1) / 2;
+  const int blocks = (lines + kLinesPerBlock - 1) / kLinesPerBlock;
+#pragma omp parallel for schedule(static, 1) if (worth_threads(grid))
+  for (int block = 0; block < blocks; ++block) {
+    const int begin = first_line + 2 * kLinesPerBlock * block;
+    const int end = std::min(n - 1, begin + 2 * kLinesPerBlock);
+    for (int j = first; j < n - 1; ++j) {
+      for (int i = begin; i < end; i += 2) {
+        if (is_held_without_faces(P, f, i, j)) continue;
+        RowRange& range = ranges[static_cast<std::size_t>(i)];
+        range = {std::min(range.first, j - first), j - first};
+      }
+    }
+  }
+  return ranges;
+}
+
 LineRelaxation::RowRange LineRelaxation::relax_line(Field& P, const Field& f, int line,
-                                                    LineDirection direction, LineWork& lw) const {
+                                                    LineDirection direction, RowRange candidates,
+                                                    LineWork& lw) const {
   // The held points at the ends of the line need no system: their changes are
   // zero, so the rows between decouple from them (the same solution to the
   // bit as with them in; on the default case 28 % of the rows).
-  const RowRange rows = line_residuals(P, f, line, direction, lw);
+  const RowRange rows = line_residuals(P, f, line, direction, candidates, lw);
   if (rows.first > rows.last) return rows;
   assemble_line_jacobian(line, direction, rows, lw);
   solve_projected(P, line, direction, rows, lw);
@@ -201,7 +237,7 @@ LineRelaxation::RowRange LineRelaxation::relax_line(Field& P, const Field& f, in
 
 LineRelaxation::RowRange LineRelaxation::line_residuals(const Field& P, const Field& f, int line,
                                                         LineDirection direction,
-                                                        LineWork& lw) const {
+                                                        RowRange candidates, LineWork& lw) const {
   // Point a = first..n-2 of the line is line_point(direction, line, a), row
   // a - first of the line system.
   const int first = op_.grid().first_interior();
@@ -213,10 +249,11 @@ LineRelaxation::RowRange LineRelaxation::line_residuals(const Field& P, const Fi
   // such points only (the cavitated region, a large part of the domain in
   // contact) has nothing to solve.
   RowRange rows{m, -1};
-  for (int r = 0; r < m; ++r) {
+  for (int r = candidates.first; r <= candidates.last; ++r) {
     const auto [i, j] = line_point(direction, line, r + first);
-    // In a cavitated neighbourhood the residual is known without the faces,
-    // and they are needed only if the point is not held.
+    // In a cavitated neighbourhood the residual is known without the faces
+    // (is_held_without_faces), and they are needed only if the point is not
+    // held.
     const bool quick = is_cavitated_around(P, i, j);
     if (quick) lw.rhs[r] = f(i, j) - op_.cavitated_apply_at(i, j);
     if (!quick || lw.rhs[r] < 0.0) set_line_row(P, f, i, j, direction, r, lw);

@@ -112,12 +112,25 @@ class LineRelaxation {
   /// and their changes in `work` for the rows it returns (beyond them the
   /// points are held, without a change).
   RowRange relax_line(Field& P, const Field& f, int line, LineDirection direction,
-                      LineWork& work) const;
-  /// The residuals of a line's points, and the face coefficients and kinds
-  /// of those not held at P = 0 (those held get fixed_change 0); returns the
-  /// rows between the first and the last point not held.
+                      RowRange candidates, LineWork& work) const;
+  /// True where point (i, j) is held at P = 0 by the projection, known
+  /// without its faces: P = 0 around it, and a residual that would lower it.
+  [[nodiscard]] bool is_held_without_faces(const Field& P, const Field& f, int i, int j) const;
+  /// For the Y lines of one colour (first_line, first_line + 2, ...), indexed
+  /// by the line: the rows between the first and the last point of the line
+  /// that is not is_held_without_faces (beyond them no row needs a look).
+  [[nodiscard]] std::vector<RowRange> y_line_candidates(const Field& P, const Field& f,
+                                                        int first_line) const;
+  /// Lines a thread takes at once in y_line_candidates (their points in one
+  /// grid row are 2 * 64 * 8 bytes: whole cache lines).
+  static constexpr int kLinesPerBlock = 64;
+  /// The residuals of a line's points in `candidates` (the points beyond
+  /// them are known to be held), and the face coefficients and kinds of those
+  /// not held at P = 0 (those held get fixed_change 0); returns the rows
+  /// between the first and the last point not held.
   [[nodiscard]] RowRange line_residuals(const Field& P, const Field& f, int line,
-                                        LineDirection direction, LineWork& work) const;
+                                        LineDirection direction, RowRange candidates,
+                                        LineWork& work) const;
   /// Row r of a line system at point (i, j): its faces, its kind and its residual.
   void set_line_row(const Field& P, const Field& f, int i, int j, LineDirection direction, int r,
                     LineWork& work) const;
