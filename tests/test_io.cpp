@@ -38,6 +38,7 @@
 #include "io/Interrupt.hpp"
 #include "io/IsolatedRead.hpp"
 #include "io/MemoryGuard.hpp"
+#include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/RollingParameters.hpp"
@@ -788,8 +789,32 @@ TEST(Writers, NetcdfErrorsNameTheFile) {
   } catch (const std::runtime_error& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find("fields.nc.part"), std::string::npos) << message;
-    EXPECT_NE(message.find("nc_create"), std::string::npos) << message;
+    // The system's reason, not NetCDF's EACCES for any failed create.
+    EXPECT_NE(message.find("nc_create: No such file or directory"), std::string::npos) << message;
   }
+}
+
+TEST(Writers, NetcdfWriteErrorsGiveTheSystemsReason) {
+  const std::filesystem::path path = "out/fields.nc.part";
+  const auto message = [&](int status, int error, const char* what) {
+    errno = error;
+    try {
+      check_netcdf_write(status, "write", path, what);
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(errno, 0);  // cleared for the next call
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string file = "cannot write 'out/fields.nc.part': ";
+  EXPECT_EQ(message(NC_EHDFERR, EIO, "nc_close"),
+            file + "nc_close (Input/output error): NetCDF: HDF error");
+  EXPECT_EQ(message(NC_EHDFERR, 0, "nc_close"), file + "nc_close: NetCDF: HDF error");
+  // NetCDF's EACCES for any failed create gives way to errno.
+  EXPECT_EQ(message(EACCES, EIO, "nc_create"), file + "nc_create: Input/output error");
+  EXPECT_EQ(message(EACCES, EACCES, "nc_create"), file + "nc_create: Permission denied");
+  EXPECT_EQ(message(NC_NOERR, ENOENT, "nc_create"), "no error");
+  EXPECT_EQ(errno, 0);
 }
 
 // ---------------------------------------------------------------------------

@@ -20,6 +20,7 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -73,9 +74,12 @@ struct Child {
   fs::path err;
 };
 
+/// Environment variables set for a child: name, value.
+using Environment = std::vector<std::pair<std::string, std::string>>;
+
 /// `stop_at`: the test hook EHLSIM_TEST_STOP_AT (docs/usage.md, "Test hooks").
 Child start(const std::vector<std::string>& args, const fs::path& capture,
-            const std::string& stop_at = "") {
+            const std::string& stop_at = "", const Environment& environment = {}) {
   Child c{-1, capture.string() + ".out", capture.string() + ".err"};
   std::vector<std::string> argv_strings = {EHLSIM_BINARY};
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());
@@ -89,6 +93,7 @@ Child start(const std::vector<std::string>& args, const fs::path& capture,
     dup2(out, STDOUT_FILENO);
     dup2(err, STDERR_FILENO);
     if (!stop_at.empty()) setenv("EHLSIM_TEST_STOP_AT", stop_at.c_str(), 1);
+    for (const auto& [name, value] : environment) setenv(name.c_str(), value.c_str(), 1);
     execv(EHLSIM_BINARY, argv.data());
     _exit(127);
   }
@@ -348,6 +353,120 @@ TEST(Lifecycle, AnUnwritablePlaceEndsWithOneLineNamingIt) {
   }
   EXPECT_TRUE(fs::is_empty(place));
   if (!read_only) fs::permissions(place, fs::perms::owner_all);  // for TempDir's removal
+}
+
+/// Where and when the writes of a run fail with EIO (tests/support/eio_shim.cpp,
+/// preloaded): no disk of a test machine can be made to give an I/O error.
+struct InjectedEio {
+  std::string file;       ///< a substring of the path of the files that fail
+  long long after = 0;    ///< bytes those files take before the writes fail
+  bool on_fsync = false;  ///< fsync fails instead of the writes
+};
+
+/// A 33^2 elastic run of 80 steps (0.1 s) with a snapshot after each: its
+/// timeseries.csv (10 kB) outgrows the 8 kB buffer of std::ofstream, so that
+/// it is written during the run; its fields.nc takes 700 kB, its checkpoints
+/// (output.checkpoint_every=20) 49 kB each.
+const std::string kEioRun =
+    "--quiet --set grid.points=33 --set time.dT=0.01 --set time.T_end=0.8 "
+    "--set output.snapshot_every=1";
+
+/// `ehlsim impact <kEioRun> <options> --out <run>` with `eio` injected.  Its
+/// stderr has the pid in the staging directory's name replaced by "PID".
+Result with_injected_eio(const fs::path& run, const std::string& options, const InjectedEio& eio) {
+  std::vector<std::string> args = {"impact"};
+  std::istringstream words(kEioRun + " " + options);
+  for (std::string word; words >> word;) args.push_back(word);
+  args.insert(args.end(), {"--out", run.string()});
+  // A sanitized ehlsim's ASan runtime refuses to start behind a preloaded
+  // library unless told that this is expected.
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string asan_options =
+      (asan != nullptr && *asan != '\0' ? std::string(asan) + ":" : std::string()) +
+      "verify_asan_link_order=0";
+  const TempDir capture("eio");
+  const Child c = start(args, capture / "impact", "",
+                        {{"LD_PRELOAD", EHLSIM_EIO_SHIM},
+                         {"EHLSIM_TEST_EIO_PATH", eio.file},
+                         {"EHLSIM_TEST_EIO_AFTER", std::to_string(eio.after)},
+                         {"EHLSIM_TEST_EIO_FSYNC", eio.on_fsync ? "1" : "0"},
+                         {"ASAN_OPTIONS", asan_options}});
+  Result r = result_of(c);
+  const std::string pid = ".part-" + std::to_string(c.pid) + "/";
+  for (std::size_t at = r.err.find(pid); at != std::string::npos; at = r.err.find(pid, at))
+    r.err.replace(at, pid.size(), ".part-PID/");
+  return r;
+}
+
+/// EIO injected by `eio` into a run with `options` over an earlier complete run
+/// in a directory `tag`: exit 1 (no crash), `message` (WORK stands for that
+/// directory) as the one line on stderr, the earlier run byte for byte, no
+/// staging directory, .part file or lock.
+void expect_eio_case(const std::string& tag, const InjectedEio& eio, const std::string& options,
+                     const std::string& message) {
+  const TempDir work(tag);
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const Result r = with_injected_eio(run, options, eio);
+  EXPECT_EQ(r.exit_code, 1) << tag;  // not 128 + a signal
+  std::string expected = message;
+  expected.replace(expected.find("WORK"), 4, work.path().string());
+  EXPECT_EQ(r.err, expected) << tag;
+  EXPECT_EQ(contents(run), before) << tag;
+  EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"}) << tag;
+}
+
+TEST(Lifecycle, AnIOErrorInFieldsNcEndsWithOneLineNamingIt) {
+  const std::string file = "ehlsim: error: cannot write 'WORK/.run.part-PID/fields.nc.part': ";
+  // At once: HDF5 cannot create the file (NetCDF says EACCES; errno has the reason).
+  expect_eio_case("create", {"fields.nc", 0}, "", file + "nc_create: Input/output error\n");
+  // In the middle: HDF5 holds the snapshots in its chunk cache until nc_close.
+  expect_eio_case("middle", {"fields.nc", 300'000}, "",
+                  file + "nc_close (Input/output error): NetCDF: HDF error\n");
+  // Everything written, the sync before the rename fails.
+  expect_eio_case("fsync", {"fields.nc", 0, true}, "",
+                  "ehlsim: error: cannot sync 'WORK/.run.part-PID/fields.nc.part' to "
+                  "disk: Input/output error\n");
+}
+
+TEST(Lifecycle, AnIOErrorInACsvFileEndsWithOneLineNamingIt) {
+  const std::string message =
+      "ehlsim: error: cannot write 'WORK/.run.part-PID/timeseries.csv.part': Input/output error\n";
+  // The first 8 kB, during the run (CsvWriter::append).
+  expect_eio_case("append", {"timeseries.csv", 0}, "", message);
+  // The last 2 kB, flushed at the end (CsvWriter::commit).
+  expect_eio_case("commit", {"timeseries.csv", 9000}, "", message);
+}
+
+TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
+  const std::string file = "ehlsim: error: cannot write checkpoint 'WORK/run.checkpoint.nc.part': ";
+  const std::string options = "--set output.checkpoint_every=20";
+  expect_eio_case("create", {"checkpoint.nc", 0}, options,
+                  file + "nc_create: Input/output error\n");
+  // In the middle of the first checkpoint (step 20).
+  expect_eio_case("middle", {"checkpoint.nc", 30'000}, options,
+                  file + "nc_close (Input/output error): NetCDF: HDF error\n");
+  // The second checkpoint (step 40) fails: the first stays, to resume from.
+  const TempDir work("second");
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const Result r = with_injected_eio(run, options, {"checkpoint.nc", 60'000});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  const fs::path kept = work / "run.checkpoint.nc";
+  EXPECT_TRUE(
+      r.err.starts_with("ehlsim: error: cannot write checkpoint '" + kept.string() + ".part': "))
+      << r.err;
+  EXPECT_NE(r.err.find("(Input/output error): NetCDF: HDF error; resume from the checkpoint of "
+                       "step 20 with: "),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--restart " + kept.string()), std::string::npos) << r.err;
+  EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 20);
+  EXPECT_EQ(contents(run), before);
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
 }
 
 /// A failed run keeps its last checkpoint (named in the message) and does not

@@ -5,6 +5,7 @@
 #include <zlib.h>
 
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -75,18 +76,27 @@ void for_each_field(State& s, Visit&& visit) {
 }
 
 /// An open NetCDF file, closed on destruction; `action` names what is done
-/// with it in error messages ("read checkpoint", "write checkpoint").
+/// with it in error messages ("read checkpoint", "write checkpoint").  A file
+/// being written gives the system's reason of a failed write (errno, cleared
+/// before each call: check_netcdf_write).
 class NcFile {
  public:
-  NcFile(std::filesystem::path path, std::string_view action)
-      : path_(std::move(path)), action_(action) {}
+  enum class Mode { Read, Write };
+  NcFile(std::filesystem::path path, std::string_view action, Mode mode = Mode::Read)
+      : path_(std::move(path)), action_(action), mode_(mode) {
+    errno = 0;
+  }
   ~NcFile() {
     if (id >= 0) nc_close(id);
   }
   NcFile(const NcFile&) = delete;
   NcFile& operator=(const NcFile&) = delete;
   void check(int status, std::string_view what) const {
-    check_netcdf(status, action_, path_, what);
+    if (mode_ == Mode::Write) {
+      check_netcdf_write(status, action_, path_, what);
+    } else {
+      check_netcdf(status, action_, path_, what);
+    }
   }
   void close() {
     const int status = nc_close(id);
@@ -98,6 +108,7 @@ class NcFile {
  private:
   std::filesystem::path path_;
   std::string_view action_;
+  Mode mode_;
 };
 
 /// Reads the one value of a global attribute (nc_get_att would write as many
@@ -321,7 +332,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
                       const nlohmann::json& parameters) {
   PartialFile file(path);
   {
-    NcFile nc(file.part_path(), "write checkpoint");
+    NcFile nc(file.part_path(), "write checkpoint", NcFile::Mode::Write);
     nc.check(nc_create(file.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
     const auto text = [&](const char* name, const std::string& value) {
       nc.check(nc_put_att_text(nc.id, NC_GLOBAL, name, value.size(), value.c_str()), name);

@@ -7,7 +7,6 @@
 #include <cerrno>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -49,14 +48,8 @@ nlohmann::json flatten_parameters(const nlohmann::json& parameters) {
 }
 
 void FieldWriter::check(int status, const char* what) const {
-  // A write that fails inside HDF5 (a full disk) reaches NetCDF as "HDF
-  // error"; errno, cleared before the writing calls, still has the reason.
-  const int error = errno;
-  if (status != NC_NOERR && error != 0 && status != error) {
-    check_netcdf(status, "write", file_.part_path(),
-                 fmt::format("{} ({})", what, std::generic_category().message(error)));
-  }
-  check_netcdf(status, "write", file_.part_path(), what);
+  // errno, cleared before the writing calls, has the reason of a failed write.
+  check_netcdf_write(status, "write", file_.part_path(), what);
 }
 
 FieldLayout FieldLayout::impact(const Grid2D& grid) {
@@ -83,6 +76,7 @@ FieldWriter::FieldWriter(const std::filesystem::path& path, FieldLayout layout,
     throw std::invalid_argument(
         fmt::format("FieldWriter: a grid of {} x {} points", layout_.x.size(), layout_.y.size()));
   }
+  errno = 0;
   check(nc_create(file_.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &ncid_), "nc_create");
   try {
     define_coordinates();

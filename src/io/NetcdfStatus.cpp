@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -19,6 +20,23 @@ void check_netcdf(int status, std::string_view action, const std::filesystem::pa
   if (status != NC_NOERR) {
     throw std::runtime_error(
         fmt::format("cannot {} '{}': {}: {}", action, path.string(), what, nc_strerror(status)));
+  }
+}
+
+void check_netcdf_write(int status, std::string_view action, const std::filesystem::path& path,
+                        std::string_view what) {
+  const int error = errno;
+  errno = 0;
+  if (status == NC_NOERR || error == 0 || error == status) {
+    check_netcdf(status, action, path, what);
+  } else if (status > 0) {
+    // A system error number passed on by NetCDF: EACCES for any failure of
+    // HDF5's create (netcdf-c's nc4_create_file), which errno names.
+    throw std::runtime_error(fmt::format("cannot {} '{}': {}: {}", action, path.string(), what,
+                                         std::generic_category().message(error)));
+  } else {
+    check_netcdf(status, action, path,
+                 fmt::format("{} ({})", what, std::generic_category().message(error)));
   }
 }
 

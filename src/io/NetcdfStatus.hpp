@@ -13,6 +13,17 @@ namespace ehlsim {
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,
                   std::string_view what);
 
+/// check_netcdf for a call that writes, made with errno 0 (the caller clears
+/// it before the first call; each check clears it again for the next).  A
+/// write that fails inside HDF5 (a full disk, an I/O error) reaches NetCDF as
+/// "HDF error", and a failed nc_create as EACCES whatever its cause; errno
+/// still holds the system's reason, which the message then gives:
+/// "cannot <action> '<path>': nc_close (Input/output error): NetCDF: HDF
+/// error", or in place of a system error that is not the cause,
+/// "cannot <action> '<path>': nc_create: Input/output error".
+void check_netcdf_write(int status, std::string_view action, const std::filesystem::path& path,
+                        std::string_view what);
+
 /// Throws std::runtime_error "cannot <action> '<path>': not a NetCDF-4 file
 /// ..." unless the file starts with the HDF5 signature.  ehlsim writes only
 /// NetCDF-4, and checking before nc_open keeps other bytes away from the

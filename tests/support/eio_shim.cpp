@@ -1,0 +1,129 @@
+// TEST ONLY: an LD_PRELOAD library that makes writes to chosen files fail with
+// EIO, the I/O error no disk of a test machine can be made to give.  It is
+// built for the tests alone (tests/CMakeLists.txt) and never linked into
+// ehlsim.
+//
+// Environment of the process it is preloaded into:
+//   EHLSIM_TEST_EIO_PATH   a substring of the path of the files to fail (the
+//                          target of /proc/self/fd/N); unset or empty: the
+//                          library only passes every call on.
+//   EHLSIM_TEST_EIO_AFTER  bytes the matching files may take in all before
+//                          the writes fail (default 0: the first one fails), so
+//                          that a file can fail in the middle.  A call that
+//                          would go beyond fails whole, writing nothing.
+//   EHLSIM_TEST_EIO_FSYNC  "1": fsync and fdatasync of the matching files fail
+//                          instead (the writes succeed), as when the kernel's
+//                          writeback of the page cache found the disk failing.
+//
+// The calls that write into files in ehlsim's process: write and writev
+// (libstdc++'s std::ofstream: the CSV files, run.json), pwrite (HDF5's sec2
+// driver under NetCDF-4: fields.nc, checkpoint.nc), pwrite64 and pwritev (the
+// same under _FILE_OFFSET_BITS=64 or in other builds).  stdio's fwrite reaches
+// the kernel through glibc's internal write, which no preload can replace;
+// ehlsim writes no file with it.  Each call is passed on to the next
+// definition (dlsym(RTLD_NEXT)): libc's, or the sanitizer runtime's.
+#include <dlfcn.h>
+#include <sys/types.h>
+#include <sys/uio.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+namespace {
+
+std::atomic<long long> written{0};  // bytes the matching files have taken
+
+template <class Function>
+Function* next(const char* name) {
+  return reinterpret_cast<Function*>(dlsym(RTLD_NEXT, name));
+}
+
+/// Whether `fd` is open on a file whose path contains EHLSIM_TEST_EIO_PATH.
+bool matches(int fd) {
+  const char* substring = std::getenv("EHLSIM_TEST_EIO_PATH");
+  if (substring == nullptr || *substring == '\0' || fd < 0) return false;
+  char link[32];
+  std::snprintf(link, sizeof(link), "/proc/self/fd/%d", fd);
+  char path[4096];
+  const ssize_t length = readlink(link, path, sizeof(path) - 1);
+  if (length <= 0) return false;
+  path[length] = '\0';
+  return std::strstr(path, substring) != nullptr;
+}
+
+bool fsync_fails() {
+  const char* flag = std::getenv("EHLSIM_TEST_EIO_FSYNC");
+  return flag != nullptr && std::strcmp(flag, "1") == 0;
+}
+
+/// Whether a write of `bytes` into `fd` fails (EIO set); counts it if not.
+bool fails(int fd, std::size_t bytes) {
+  if (fsync_fails() || !matches(fd)) return false;
+  const char* after = std::getenv("EHLSIM_TEST_EIO_AFTER");
+  const long long budget = after == nullptr ? 0 : std::atoll(after);
+  if (written.load() + static_cast<long long>(bytes) > budget) {
+    errno = EIO;
+    return true;
+  }
+  written += static_cast<long long>(bytes);
+  return false;
+}
+
+std::size_t total(const iovec* iov, int count) {
+  std::size_t bytes = 0;
+  for (int i = 0; i < count; ++i) bytes += iov[i].iov_len;
+  return bytes;
+}
+
+}  // namespace
+
+extern "C" {
+
+ssize_t write(int fd, const void* buffer, std::size_t count) {
+  static auto* real = next<ssize_t(int, const void*, std::size_t)>("write");
+  return fails(fd, count) ? -1 : real(fd, buffer, count);
+}
+
+ssize_t pwrite(int fd, const void* buffer, std::size_t count, off_t offset) {
+  static auto* real = next<ssize_t(int, const void*, std::size_t, off_t)>("pwrite");
+  return fails(fd, count) ? -1 : real(fd, buffer, count, offset);
+}
+
+ssize_t pwrite64(int fd, const void* buffer, std::size_t count, off64_t offset) {
+  static auto* real = next<ssize_t(int, const void*, std::size_t, off64_t)>("pwrite64");
+  return fails(fd, count) ? -1 : real(fd, buffer, count, offset);
+}
+
+ssize_t writev(int fd, const iovec* iov, int count) {
+  static auto* real = next<ssize_t(int, const iovec*, int)>("writev");
+  return fails(fd, total(iov, count)) ? -1 : real(fd, iov, count);
+}
+
+ssize_t pwritev(int fd, const iovec* iov, int count, off_t offset) {
+  static auto* real = next<ssize_t(int, const iovec*, int, off_t)>("pwritev");
+  return fails(fd, total(iov, count)) ? -1 : real(fd, iov, count, offset);
+}
+
+int fsync(int fd) {
+  static auto* real = next<int(int)>("fsync");
+  if (fsync_fails() && matches(fd)) {
+    errno = EIO;
+    return -1;
+  }
+  return real(fd);
+}
+
+int fdatasync(int fd) {
+  static auto* real = next<int(int)>("fdatasync");
+  if (fsync_fails() && matches(fd)) {
+    errno = EIO;
+    return -1;
+  }
+  return real(fd);
+}
+
+}  // extern "C"
