@@ -274,6 +274,33 @@ TEST_P(MirroredDeformation, EqualsTheFullGridOfTheUnfoldedPressure) {
   EXPECT_NEAR(Wf(3, 2), fft.kernel()(3, 2), 1e-14);
 }
 
+TEST(MirroredDeformation, APressureInACornerBoxNeedsOnlyItsBoxAndLeavesNoTrace) {
+  // The transforms of the input look only at the box of the quadrant that
+  // holds the pressure (the cavitated rest is zero).  After a pressure over
+  // the whole quadrant (which fills every work row), pressures in boxes that
+  // end inside a chunk of rows and of columns, and a zero pressure, must
+  // still give the direct sum.
+  const Grid2D quadrant = Grid2D(257, kHalfWidth).quadrant();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  DirectDeformation direct(quadrant);
+  FftDeformation fft(quadrant);
+  const struct { int columns, rows; } boxes[] = {{129, 129}, {37, 21}, {3, 90}, {129, 1}, {0, 0}};
+  for (const auto& box : boxes) {
+    Field P(quadrant);
+    for (int j = 0; j < box.rows; ++j)
+      for (int i = 0; i < box.columns; ++i) P(i, j) = uniform(rng);
+    Field Wd, Wf;
+    direct.apply(P, Wd);
+    fft.apply(P, Wf);
+    if (box.rows == 0) {
+      EXPECT_EQ(max_abs(Wf), 0.0);
+    } else {
+      EXPECT_LT(max_diff(Wf, Wd) / max_abs(Wd), 1e-12) << box.columns << " x " << box.rows;
+    }
+  }
+}
+
 TEST(MirroredDeformation, HertzPressureGivesTheAnalyticDeformation) {
   // model.md: W = 1 - r^2/2 inside the unit Hertz contact.
   const Grid2D quadrant = Grid2D(201, kHalfWidth).quadrant();

@@ -545,27 +545,59 @@ struct MirroredImpl final : FftDeformation::Impl {
       chunk(first, std::min(DctI::kChunk, r.end - first));
   }
 
+  /// The box [0, columns) x [0, rows) of the quadrant beyond which P is zero.
+  struct Extent {
+    int columns, rows;
+  };
+  /// Reads the zeros only: from the last row down to the first nonzero one,
+  /// and in the rows below it from the end to the last nonzero value found.
+  [[nodiscard]] Extent pressurized_extent(const double* p) const {
+    const auto row = [&](int j) { return p + static_cast<std::size_t>(j) * n; };
+    int rows = n;
+    while (rows > 0 && std::all_of(row(rows - 1), row(rows - 1) + n, is_zero)) --rows;
+    int columns = 0;
+    for (int j = 0; j < rows; ++j) {
+      int last = n;
+      while (last > columns && is_zero(row(j)[last - 1])) --last;
+      columns = last;
+    }
+    return {columns, rows};
+  }
+  static bool is_zero(double value) { return value == 0.0; }
+
   void apply(const double* p, double* w) override {
     const auto un = static_cast<std::size_t>(n);
     const auto umc = static_cast<std::size_t>(mc);
     const auto ud = static_cast<std::size_t>(dist);
     double* d = data.get();
     const double* kh = kernel_hat.get();
-    // Along X: the rows of P (zero beyond their n values), transformed into d.
+    // In contact most of the quadrant is cavitated (P = 0): the transforms of
+    // the input see only the box that holds the pressure, the rest being the
+    // zeros apply_padded neither stores nor reads.  The chunks stay those of
+    // the whole grid (a vector's arithmetic depends on the count of its
+    // chunk), so the result is the one of the whole transform, to the bit.
+    const Extent extent = pressurized_extent(p);
+    if (extent.rows == 0) {
+      std::fill(w, w + un * un, 0.0);
+      return;
+    }
+    // Along X: the rows of P (zero beyond their first extent.columns values),
+    // transformed into d; the rows beyond extent.rows are not needed.
     const auto rows_in = [&](int c) {
       by_chunks(share(n, parts, c), [&](int first, int count) {
-        batches[c].dct.apply_padded(p + first * un, n, n, d + first * ud, count);
+        if (first >= extent.rows) return;
+        batches[c].dct.apply_padded(p + first * un, n, extent.columns, d + first * ud, count);
       });
     };
-    // Along Y, a few columns kx at a time: their n data values transposed
-    // into the strip, transform (zero beyond them), product with the kernel
-    // spectrum, inverse transform (DCT-I is its own inverse up to the scale),
-    // and the first n values transposed back.
+    // Along Y, a few columns kx at a time: their data values (extent.rows of
+    // them) transposed into the strip, transform (zero beyond them), product
+    // with the kernel spectrum, inverse transform (DCT-I is its own inverse up
+    // to the scale), and the first n values transposed back.
     const auto columns = [&](int c) {
       double* strip = batches[c].strip.get();
       by_chunks(share(mc, parts, c), [&](int first, int count) {
-        transpose(d + first, dist, strip, dist, n, count);
-        batches[c].dct.apply_padded(strip, dist, n, strip, count);
+        transpose(d + first, dist, strip, dist, extent.rows, count);
+        batches[c].dct.apply_padded(strip, dist, extent.rows, strip, count);
         for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
           double* row = strip + kx * ud;
           const double* kernel_row = kh + (first + kx) * umc;
