@@ -4,6 +4,7 @@
 
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -76,10 +77,10 @@ double run_parameter(const nlohmann::json& run, const char* section, const char*
 /// crashes or hangs on is named like any other damaged one).  Throws
 /// ConfigError for a file that cannot be read, RunInterrupted for a signal
 /// during the child's read (the analysis has not started).
-void open_fields(const std::filesystem::path& path, std::optional<FieldReader>& fields) {
+std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   try {
     pre_read_fields_in_child(path);
-    fields.emplace(path);
+    return std::make_unique<FieldReader>(path);
   } catch (const PreReadInterrupted&) {
     throw RunInterrupted(0, std::numeric_limits<double>::quiet_NaN());
   } catch (const std::runtime_error& e) {
@@ -97,8 +98,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   const DryContactRadius dry(run_parameter(run, "time", "Delta0", run_file),
                              run_parameter(run, "time", "V0", run_file));
 
-  std::optional<FieldReader> fields;
-  open_fields(run_dir / RunOutput::kFieldsFile, fields);
+  const std::unique_ptr<FieldReader> fields = open_fields(run_dir / RunOutput::kFieldsFile);
 
   RunAnalysisReport report;
   report.files = {staging / kSpikeSnapshotsFile, staging / kSpikeProfilesFile,
