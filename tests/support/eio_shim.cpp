@@ -79,6 +79,15 @@ std::size_t total(const iovec* iov, int count) {
   return bytes;
 }
 
+/// A sync of `fd` by `real` (fsync or fdatasync), or EIO where it is to fail.
+int synced(int fd, int (*real)(int)) {
+  if (fsync_fails() && matches(fd)) {
+    errno = EIO;
+    return -1;
+  }
+  return real(fd);
+}
+
 }  // namespace
 
 extern "C" {
@@ -110,20 +119,12 @@ ssize_t pwritev(int fd, const iovec* iov, int count, off_t offset) {
 
 int fsync(int fd) {
   static auto* real = next<int(int)>("fsync");
-  if (fsync_fails() && matches(fd)) {
-    errno = EIO;
-    return -1;
-  }
-  return real(fd);
+  return synced(fd, real);
 }
 
 int fdatasync(int fd) {
   static auto* real = next<int(int)>("fdatasync");
-  if (fsync_fails() && matches(fd)) {
-    errno = EIO;
-    return -1;
-  }
-  return real(fd);
+  return synced(fd, real);
 }
 
 }  // extern "C"
