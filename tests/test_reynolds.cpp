@@ -204,6 +204,40 @@ TEST(LineRelaxation, LeavesTheCavitatedRegionAtZero) {
   EXPECT_GT(inside_change, 1e-3);  // the pressurized region was relaxed
 }
 
+// Where a point's pressure and its four neighbours' are zero, apply_at takes
+// the transport term alone, without the faces (the cavitated region, most of
+// the domain in the rebound): it must be the full stencil's value, for the
+// squeeze term of the impact and the upwind wedge of the rolling contact, with
+// every face mean.
+TEST(ReynoldsOperator, ACavitatedNeighbourhoodGivesTheFullStencilsValue) {
+  const Grid2D grid(33, 1.5);
+  const ContactData d = contact_data(grid, 5, [](double, double) { return 1.0; });
+  for (const double wedge : {0.0, 1.0}) {
+    for (const FaceMean mean : {FaceMean::Arithmetic, FaceMean::Harmonic, FaceMean::Logarithmic}) {
+      Lubricant lubricant;
+      lubricant.alpha_bar = 10.0;
+      OperatorSettings settings;
+      settings.lambda_bar = 0.0237;
+      settings.wedge = wedge;
+      settings.face_mean = mean;
+      ReynoldsOperator op(grid, lubricant, settings);
+      op.set_time_step(grid.h(), 1.5);
+      op.set_delta(-0.4);
+      op.update_coefficients(d.P);
+      int cavitated = 0;
+      for (int j = 1; j < grid.n - 1; ++j) {
+        for (int i = 1; i < grid.n - 1; ++i) {
+          if (!is_cavitated_around(d.P, i, j)) continue;
+          ++cavitated;
+          ASSERT_EQ(op.apply_at(d.P, i, j), op.apply_at(d.P, i, j, op.faces_at(i, j)))
+              << i << ", " << j << ", wedge " << wedge;
+        }
+      }
+      EXPECT_GT(cavitated, grid.n * grid.n / 2);
+    }
+  }
+}
+
 // The local Newton step differentiates the stencil with xi's own dependence on
 // the pressure (rheology and film).  With the exact derivative, one step from
 // P* + eps B leaves a residual O(eps^2): ten times less eps, a hundred times

@@ -205,7 +205,7 @@ std::vector<LineRelaxation::RowRange> LineRelaxation::y_line_candidates(const Fi
   const int first = grid.first_interior();
   const int m = n - 1 - first;
   std::vector<RowRange> ranges(static_cast<std::size_t>(n), RowRange{m, -1});
-  const int lines = (n - 1 - first_line + 1) / 2;
+  const int lines = (n - first_line) / 2;  // first_line, first_line + 2, ..., <= n - 2
   const int blocks = (lines + kLinesPerBlock - 1) / kLinesPerBlock;
 #pragma omp parallel for schedule(static, 1) if (worth_threads(grid))
   for (int block = 0; block < blocks; ++block) {
