@@ -39,13 +39,14 @@ constexpr double kFurtherRetryDamping = 0.5;
 constexpr int kMaxSplitDepth = 2;
 /// The attempt from which on a step brings the deformation up to date before
 /// each colour of a sweep (once per sweep before it: section 7 of
-/// docs/model.md): the last retry only.  On the 1025^2 default case, before
-/// each colour from the second retry on cost 140 work units per step in the
-/// rebound (T = 3.5-3.6) and 283 in the pocket collapse, against 105 and 205
-/// in the last retry only, with the same cycles per step and steps retried,
-/// and the case maps on 65^2 and 129^2 ended alike; never before each colour,
-/// M = 20, L = 20 on 129^2 failed at T = 3.773 (docs/performance.md).
-constexpr int kFirstAttemptWithDeformationEachColour = kMaxRetries;
+/// docs/model.md): the second retry on.  The last retry only cost less on the
+/// 1025^2 default case (105 against 140 work units per step in the rebound,
+/// 205 against 283 in the pocket collapse), but the paper's study on 1025^2
+/// then failed M = 20 at T = 3.9375 and M = 10 at T = 3.6885 (exit 1, no
+/// attempt converged), which the second retry on had solved; never before
+/// each colour, M = 20, L = 20 on 129^2 fails at T = 3.773
+/// (docs/performance.md).
+constexpr int kFirstAttemptWithDeformationEachColour = 2;
 
 /// The factor on both under-relaxation parameters in attempt `attempt` of a
 /// step: 1, then solver.retry_damping (0.8), then half of that at each
