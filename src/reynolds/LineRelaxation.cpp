@@ -251,13 +251,13 @@ LineRelaxation::RowRange LineRelaxation::line_residuals(const Field& P, const Fi
   RowRange rows{m, -1};
   for (int r = candidates.first; r <= candidates.last; ++r) {
     const auto [i, j] = line_point(direction, line, r + first);
-    // In a cavitated neighbourhood the residual is known without the faces
-    // (is_held_without_faces), and they are needed only if the point is not
-    // held.
-    const bool quick = is_cavitated_around(P, i, j);
-    if (quick) lw.rhs[r] = f(i, j) - op_.cavitated_apply_at(i, j);
-    if (!quick || lw.rhs[r] < 0.0) set_line_row(P, f, i, j, direction, r, lw);
-    const bool held = P(i, j) <= 0.0 && lw.rhs[r] >= 0.0;
+    // A held point of a cavitated neighbourhood needs neither its faces nor
+    // its residual (its row is replaced); y_line_candidates asks the same.
+    bool held = is_held_without_faces(P, f, i, j);
+    if (!held) {
+      set_line_row(P, f, i, j, direction, r, lw);
+      held = P(i, j) <= 0.0 && lw.rhs[r] >= 0.0;
+    }
     lw.fixed_change[r] = held ? 0.0 : std::numeric_limits<double>::quiet_NaN();
     if (held) {
       lw.is_jacobi[r] = 0;

@@ -22,12 +22,10 @@ double point_residual(const ReynoldsOperator& op, const Field& P, const Field& f
   return constrained_residual(P(i, j), f(i, j) - op.apply_at(P, i, j));
 }
 
-/// |point_residual| / |dN/dP| of a point; a zero residual (a held cavitated
-/// point) is 0 without its diagonal.
+/// |point_residual| / |dN/dP| of a point.
 double scaled_point_residual(const ReynoldsOperator& op, const Field& P, const Field& f, int i,
                              int j) {
-  const double residual = point_residual(op, P, f, i, j);
-  return residual == 0.0 ? 0.0 : std::abs(residual / op.diagonal_at(i, j));
+  return std::abs(op.pressure_scaled(point_residual(op, P, f, i, j), i, j));
 }
 
 /// The window's unknowns, numbered row by row; on a mirrored grid an index

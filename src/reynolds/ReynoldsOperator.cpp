@@ -176,10 +176,7 @@ double ReynoldsOperator::diagonal_at(int i, int j) const {
 double ReynoldsOperator::pressure_scaled_norm(const Field& r) const {
   // Over the full grid's interior (full_interior_sum).
   const double sum = full_interior_sum(grid_, [&](int i, int j) {
-    // A zero residual (the held cavitated points) adds nothing: its diagonal
-    // is not formed.
-    if (r(i, j) == 0.0) return 0.0;
-    const double scaled = r(i, j) / diagonal_at(i, j);
+    const double scaled = pressure_scaled(r(i, j), i, j);
     return scaled * scaled;
   });
   const double count = grid_.full_interior();

@@ -252,6 +252,11 @@ class ReynoldsOperator {
 
   /// |dN_ij / dP_ij| from the frozen coefficients (flow and elastic-squeeze part).
   [[nodiscard]] double diagonal_at(int i, int j) const;
+  /// r / |dN_ij/dP_ij| for a residual r of point (i, j); a zero residual (a
+  /// held cavitated point) is 0 without the diagonal being formed.
+  [[nodiscard]] double pressure_scaled(double r, int i, int j) const {
+    return r == 0.0 ? 0.0 : r / diagonal_at(i, j);
+  }
   /// Root mean square over the interior of r_ij / |dN_ij/dP_ij|.
   [[nodiscard]] double pressure_scaled_norm(const Field& r) const;
 
