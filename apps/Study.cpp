@@ -36,6 +36,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <thread>
+#include <variant>
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "grid/Grid.hpp"
@@ -488,6 +489,73 @@ nlohmann::json case_summary(const Case& c) {
   return entry;
 }
 
+/// The study's cases and what they share, every input checked before any
+/// case starts (bad input: ConfigError).
+struct StudyPlan {
+  std::vector<Case> cases;  ///< the impacts, then the rolling contacts
+  ImpactConfig reference;   ///< the impacts' case, for the dry reference
+  fs::path script;          ///< the figure script
+};
+
+StudyPlan plan_study(const StudyOptions& options) {
+  check_study_options(options);
+  const fs::path out = options.out_dir;
+  StudyPlan plan{study_cases(options, out), {}, {}};
+  for (const Case& c : plan.cases) {
+    plan.reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError
+  }
+  for (Case& c : rolling_cases(options, out)) {
+    (void)load_rolling_config(std::nullopt, c.overrides);
+    plan.cases.push_back(std::move(c));
+  }
+  plan.script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
+  if (std::error_code ec; !options.no_plots && !fs::is_regular_file(plan.script, ec)) {
+    throw ConfigError(
+        fmt::format("--plot-script '{}': {}", plan.script.string(),
+                    fs::exists(plan.script, ec) ? "not a regular file" : "no such file"));
+  }
+  return plan;
+}
+
+/// The study.json entries of the cases (each finished impact's snapshots
+/// analysed first), or the study's exit code when a signal stops an analysis.
+std::variant<nlohmann::json, int> case_entries(const std::vector<Case>& cases) {
+  nlohmann::json entries = nlohmann::json::array();
+  for (const Case& c : cases) {
+    // A signal stops the analysis before its swap: the case keeps its earlier spike files.
+    const std::string analysis =
+        fmt::format("during the spike analysis of {} (its spike files were not changed)", c.name);
+    try {
+      entries.push_back(case_summary(c));
+    } catch (const RunInterrupted&) {
+      return report_interruption(cases, analysis);
+    } catch (const PublishInterrupted&) {
+      return report_interruption(cases, analysis);
+    }
+  }
+  return entries;
+}
+
+/// Draws the figures: their study.json entry, or the study's exit code when a
+/// signal came during the script.
+std::variant<nlohmann::json, int> figures_entry(const StudyOptions& options, const fs::path& script,
+                                                const std::vector<Case>& cases) {
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path out = options.out_dir;
+  const fs::path log = out / "logs" / "plot.log";
+  const int code = draw_figures(options.python, script, out, log);
+  if (InterruptGuard::received() != 0) {
+    return report_interruption(cases, "during the figure script (figures/ was not changed)");
+  }
+  if (code != cli::kExitOk) {
+    fmt::print("  figure script failed (exit {}): {}\n", code, last_line(log));
+  } else {
+    fmt::print("  figures in {}\n", (out / "figures").string());
+  }
+  return nlohmann::json{
+      {"script", script.string()}, {"exit_code", code}, {"wall_seconds", seconds_since(start)}};
+}
+
 }  // namespace
 
 CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
@@ -527,23 +595,8 @@ int run_study(const StudyOptions& options) {
   // SIGINT, SIGTERM, SIGHUP go on to the running cases; the study waits for them.
   const InterruptGuard interrupts;
   const auto start = std::chrono::steady_clock::now();
-  check_study_options(options);
+  StudyPlan plan = plan_study(options);
   const fs::path out = options.out_dir;
-  std::vector<Case> cases = study_cases(options, out);
-  ImpactConfig reference;
-  for (const Case& c : cases) {
-    reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError, before any run
-  }
-  for (Case& c : rolling_cases(options, out)) {
-    (void)load_rolling_config(std::nullopt, c.overrides);
-    cases.push_back(std::move(c));
-  }
-  const fs::path script =
-      options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
-  if (std::error_code ec; !options.no_plots && !fs::is_regular_file(script, ec)) {
-    throw ConfigError(fmt::format("--plot-script '{}': {}", script.string(),
-                                  fs::exists(script, ec) ? "not a regular file" : "no such file"));
-  }
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
   if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {
@@ -556,51 +609,30 @@ int run_study(const StudyOptions& options) {
       out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid, fmt::join(kRollingM, ", "),
       options.rolling_grid, options.jobs);
   std::fflush(stdout);
-  run_cases(cases, options.jobs, out / "study.json");
-  if (InterruptGuard::received() != 0) return report_interruption(cases);
+  run_cases(plan.cases, options.jobs, out / "study.json");
+  if (InterruptGuard::received() != 0) return report_interruption(plan.cases);
 
-  bool ok = true;
+  auto entries = case_entries(plan.cases);
+  if (const int* code = std::get_if<int>(&entries)) return *code;
   nlohmann::json summary = {
       {"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
       {"grid", options.grid},
       {"rolling_grid", options.rolling_grid},
       {"L", kStudyL},
       {"overrides", options.overrides},
-      {"cases", nlohmann::json::array()}};
-  for (const Case& c : cases) {
-    // A signal stops the analysis before its swap: the case keeps its earlier spike files.
-    const std::string analysis =
-        fmt::format("during the spike analysis of {} (its spike files were not changed)", c.name);
-    try {
-      summary["cases"].push_back(case_summary(c));
-    } catch (const RunInterrupted&) {
-      return report_interruption(cases, analysis);
-    } catch (const PublishInterrupted&) {
-      return report_interruption(cases, analysis);
-    }
-    ok = ok && c.exit_code == cli::kExitOk;
-  }
-  write_dry_reference(out / "dry.csv", reference);
+      {"cases", std::move(std::get<nlohmann::json>(entries))}};
+  bool ok =
+      std::ranges::all_of(plan.cases, [](const Case& c) { return c.exit_code == cli::kExitOk; });
+  write_dry_reference(out / "dry.csv", plan.reference);
   summary["runs_wall_seconds"] = seconds_since(start);
 
   if (!options.no_plots) {
-    const auto plot_start = std::chrono::steady_clock::now();
-    const fs::path log = out / "logs" / "plot.log";
-    const int code = draw_figures(options.python, script, out, log);
-    if (InterruptGuard::received() != 0) {
-      return report_interruption(cases, "during the figure script (figures/ was not changed)");
-    }
-    summary["plots"] = {{"script", script.string()},
-                        {"exit_code", code},
-                        {"wall_seconds", seconds_since(plot_start)}};
-    if (code != cli::kExitOk) {
-      ok = false;
-      fmt::print("  figure script failed (exit {}): {}\n", code, last_line(log));
-    } else {
-      fmt::print("  figures in {}\n", (out / "figures").string());
-    }
+    auto figures = figures_entry(options, plan.script, plan.cases);
+    if (const int* code = std::get_if<int>(&figures)) return *code;
+    summary["plots"] = std::move(std::get<nlohmann::json>(figures));
+    ok = ok && summary["plots"]["exit_code"] == cli::kExitOk;
   }
-  if (InterruptGuard::received() != 0) return report_interruption(cases);
+  if (InterruptGuard::received() != 0) return report_interruption(plan.cases);
   summary["wall_seconds"] = seconds_since(start);
   write_json_atomic(out / "study.json", summary);
   fmt::print("study {} in {:.1f} s; summary in {}\n", ok ? "finished" : "FAILED",

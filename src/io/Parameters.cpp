@@ -236,11 +236,10 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
                    "and rises this fraction of it above the lowest point inward of it"));
 }
 
-std::vector<ParameterSpec> build_registry() {
+/// [case]: the dimensionless impact (Moes M, L or lambda_bar, alpha_bar).
+void add_case_parameters(std::vector<ParameterSpec>& r) {
   const std::optional<Bound> none;
   const std::optional<double> no_default;
-  std::vector<ParameterSpec> r;
-  // [case]
   r.push_back(real("case.M", kDefaultM, "", above(0), none, "",
                    "Moes load parameter; sets lambda_bar = (128 pi^3 / (3 M^4))^(1/3)"));
   r.push_back(real("case.L", kDefaultL, "", at_least(0), none, "",
@@ -249,7 +248,13 @@ std::vector<ParameterSpec> build_registry() {
                    "12 eta0 R^2 / (a*^2 t_bar ph*); alternative to case.M (not both)"));
   r.push_back(real("case.alpha_bar", no_default, "from case.M and case.L", at_least(0), none, "",
                    "alpha ph*; alternative to case.L (not both)"));
-  // [physical]
+}
+
+/// [physical]: the impact in SI units (ball, bodies; the lubricant in
+/// add_physical_lubricant_parameters).
+void add_physical_case_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
   r.push_back(real("physical.reduced_radius", no_default, "none", above(0), none, "m",
                    "reduced radius of curvature R (or give physical.ball_radius)"));
   r.push_back(real("physical.ball_radius", no_default, "none", above(0), none, "m",
@@ -273,11 +278,12 @@ std::vector<ParameterSpec> build_registry() {
   add_physical_lubricant_parameters(r);
   r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
-  add_lubricant_parameters(r);
-  add_body_and_grid_points_parameters(r, kDefaultGridPoints);
-  r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), none, "",
-                   "the domain is [-half_width, half_width]^2 (unit: a*)"));
-  // [time]
+}
+
+/// [time]: step, end, step cap and the start of the ball.
+void add_time_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
+  const std::optional<double> no_default;
   r.push_back(real("time.dT", no_default, "the mesh size", above(0), none, "", "time step"));
   {
     ParameterSpec t_end = real("time.T_end", no_default, "until lift-off", above(0), none, "",
@@ -297,14 +303,22 @@ std::vector<ParameterSpec> build_registry() {
                    "initial separation Delta(0) (unit: delta*)"));
   r.push_back(real("time.V0", kDefaultV0, "", above(0), none, "",
                    "initial approach speed -dDelta/dT(0) (unit: v0)"));
-  // [surface]
+}
+
+/// [surface]: the waviness of the flat.
+void add_surface_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
   r.push_back(real("surface.waviness_amplitude", 0.0, "", at_least(0), none, "",
                    "amplitude A_w of a cosine waviness added to H (0: smooth)"));
   r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), none, "",
                    "wavelength of the waviness"));
   r.push_back(real("surface.waviness_angle_deg", 0.0, "", none, none, "deg",
                    "direction of the waviness wave vector, from the X axis"));
-  // [output]
+}
+
+/// [output]: snapshots and checkpoints.
+void add_output_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
   r.push_back(integer("output.snapshot_every", kDefaultSnapshotEvery, at_least(1), none, false,
                       "store P and H every this many time steps"));
   r.push_back(real_array("output.snapshot_times", at_least(0),
@@ -312,7 +326,11 @@ std::vector<ParameterSpec> build_registry() {
   r.push_back(integer("output.checkpoint_every", 0, at_least(0), none, false,
                       "write checkpoint.nc (for `ehlsim impact --restart`) every this many "
                       "steps; 0: never"));
-  // [solver]
+}
+
+/// [solver]: the shared multigrid keys and the impact's retries, local Newton steps and symmetry.
+void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
+  const std::optional<Bound> none;
   add_solver_parameters(r, kDefaults.solver_settings(),
                         "multigrid cycles per attempt of a time step (up to twice as many while "
                         "it converges steadily; a stalled step is retried with more damping)");
@@ -338,6 +356,21 @@ std::vector<ParameterSpec> build_registry() {
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
                      "when the case is even in X and Y (no waviness, or waviness along an axis), "
                      "4 times fewer points; off: always the full domain"));
+}
+
+std::vector<ParameterSpec> build_registry() {
+  const std::optional<Bound> none;
+  std::vector<ParameterSpec> r;
+  add_case_parameters(r);
+  add_physical_case_parameters(r);
+  add_lubricant_parameters(r);
+  add_body_and_grid_points_parameters(r, kDefaultGridPoints);
+  r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), none, "",
+                   "the domain is [-half_width, half_width]^2 (unit: a*)"));
+  add_time_parameters(r);
+  add_surface_parameters(r);
+  add_output_parameters(r);
+  add_impact_solver_parameters(r);
   add_spike_parameters(r);
   return r;
 }
@@ -542,13 +575,86 @@ std::optional<double> number_of(const toml::node& node) {
 
 std::string with_space(const std::string& s) { return s.empty() ? s : " " + s; }
 
+/// Throws the one-line error of a given value: key, value as written, what is
+/// allowed, and where it was given.
+struct ValueProblem {
+  const ParameterSpec& spec;
+  const Given& given;
+  [[noreturn]] void operator()(const std::string& problem) const {
+    fail_value(spec.key, given.text, problem, given.origin);
+  }
+};
+
+ParameterValue convert_enum(const ParameterSpec& spec, const toml::node& node,
+                            const ValueProblem& fail) {
+  const auto* v = node.as_string();
+  if (!v || std::find(spec.choices.begin(), spec.choices.end(), v->get()) == spec.choices.end()) {
+    fail("must be " + spec.allowed());
+  }
+  return v->get();
+}
+
+ParameterValue convert_float(const ParameterSpec& spec, const toml::node& node,
+                             const ValueProblem& fail) {
+  const std::string range = interval_text(spec.lower, spec.upper);
+  const std::optional<double> v = number_of(node);
+  if (!v || std::isnan(*v)) fail("must be a number" + with_space(range));
+  if (std::isinf(*v) && !(spec.allow_infinite && *v > 0)) {
+    fail("must be a finite number" + with_space(range));
+  }
+  if (!in_interval(spec.lower, spec.upper, *v)) fail("must be " + range);
+  return *v;
+}
+
+ParameterValue convert_int(const ParameterSpec& spec, const toml::node& node,
+                           const ValueProblem& fail) {
+  std::optional<double> v;
+  if (const auto* i = node.as_integer()) {
+    v = static_cast<double>(i->get());
+  } else if (const auto* f = node.as_floating_point();
+             f && std::isfinite(f->get()) && std::trunc(f->get()) == f->get()) {
+    v = f->get();  // an integral float such as 257.0
+  }
+  if (!v) {
+    const std::string allowed = spec.allowed();
+    fail(allowed == "an integer" ? "must be an integer" : "must be an integer " + allowed);
+  }
+  const bool fits = *v >= static_cast<double>(std::numeric_limits<int>::min()) &&
+                    *v <= static_cast<double>(std::numeric_limits<int>::max());
+  if (!fits) fail("is too large (must fit in a 32-bit integer)");
+  const bool ok = in_interval(spec.lower, spec.upper, *v) &&
+                  (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
+  if (!ok) fail("must be " + spec.allowed());
+  return static_cast<int>(*v);
+}
+
+ParameterValue convert_float_array(const ParameterSpec& spec, const toml::node& node,
+                                   const ValueProblem& fail) {
+  std::vector<double> values;
+  if (const std::optional<double> single = number_of(node)) {
+    values.push_back(*single);  // a single number is a one-entry array
+  } else if (const auto* a = node.as_array()) {
+    for (const auto& element : *a) {
+      const std::optional<double> v = number_of(element);
+      if (!v) fail("must be " + spec.allowed());
+      values.push_back(*v);
+    }
+  } else {
+    fail("must be " + spec.allowed());
+  }
+  const std::string range = interval_text(spec.lower, spec.upper);
+  for (const double v : values) {
+    if (!std::isfinite(v)) fail("every entry must be a finite number" + with_space(range));
+    if (!in_interval(spec.lower, spec.upper, v)) fail("every entry must be " + range);
+  }
+  return values;
+}
+
 Given convert(const ParameterSpec& spec, const toml::node& node) {
   Given g;
   g.text = node_text(node);
   g.origin = node_origin(node);
-  const auto fail = [&](const std::string& problem) {
-    fail_value(spec.key, g.text, problem, g.origin);
-  };
+  const ValueProblem fail{spec, g};
   switch (spec.type) {
     case ParameterType::Bool: {
       const auto* v = node.as_boolean();
@@ -556,69 +662,18 @@ Given convert(const ParameterSpec& spec, const toml::node& node) {
       g.value = v->get();
       break;
     }
-    case ParameterType::Enum: {
-      const auto* v = node.as_string();
-      if (!v ||
-          std::find(spec.choices.begin(), spec.choices.end(), v->get()) == spec.choices.end()) {
-        fail("must be " + spec.allowed());
-      }
-      g.value = v->get();
+    case ParameterType::Enum:
+      g.value = convert_enum(spec, node, fail);
       break;
-    }
-    case ParameterType::Float: {
-      const std::string range = interval_text(spec.lower, spec.upper);
-      const std::optional<double> v = number_of(node);
-      if (!v || std::isnan(*v)) fail("must be a number" + with_space(range));
-      if (std::isinf(*v) && !(spec.allow_infinite && *v > 0)) {
-        fail("must be a finite number" + with_space(range));
-      }
-      if (!in_interval(spec.lower, spec.upper, *v)) fail("must be " + range);
-      g.value = *v;
+    case ParameterType::Float:
+      g.value = convert_float(spec, node, fail);
       break;
-    }
-    case ParameterType::Int: {
-      std::optional<double> v;
-      if (const auto* i = node.as_integer()) {
-        v = static_cast<double>(i->get());
-      } else if (const auto* f = node.as_floating_point();
-                 f && std::isfinite(f->get()) && std::trunc(f->get()) == f->get()) {
-        v = f->get();  // an integral float such as 257.0
-      }
-      if (!v) {
-        const std::string allowed = spec.allowed();
-        fail(allowed == "an integer" ? "must be an integer" : "must be an integer " + allowed);
-      }
-      const bool fits = *v >= static_cast<double>(std::numeric_limits<int>::min()) &&
-                        *v <= static_cast<double>(std::numeric_limits<int>::max());
-      if (!fits) fail("is too large (must fit in a 32-bit integer)");
-      const bool ok =
-          in_interval(spec.lower, spec.upper, *v) &&
-          (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
-      if (!ok) fail("must be " + spec.allowed());
-      g.value = static_cast<int>(*v);
+    case ParameterType::Int:
+      g.value = convert_int(spec, node, fail);
       break;
-    }
-    case ParameterType::FloatArray: {
-      std::vector<double> values;
-      if (const std::optional<double> single = number_of(node)) {
-        values.push_back(*single);  // a single number is a one-entry array
-      } else if (const auto* a = node.as_array()) {
-        for (const auto& element : *a) {
-          const std::optional<double> v = number_of(element);
-          if (!v) fail("must be " + spec.allowed());
-          values.push_back(*v);
-        }
-      } else {
-        fail("must be " + spec.allowed());
-      }
-      const std::string range = interval_text(spec.lower, spec.upper);
-      for (const double v : values) {
-        if (!std::isfinite(v)) fail("every entry must be a finite number" + with_space(range));
-        if (!in_interval(spec.lower, spec.upper, v)) fail("every entry must be " + range);
-      }
-      g.value = std::move(values);
+    case ParameterType::FloatArray:
+      g.value = convert_float_array(spec, node, fail);
       break;
-    }
   }
   return g;
 }
@@ -978,81 +1033,94 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
 
 namespace {
 
-void assemble_case(const Inputs& in, ImpactConfig& c) {
+/// E' of a [physical] section: physical.reduced_modulus, or E1, nu1, E2, nu2 (not both).
+double physical_reduced_modulus(const Inputs& in, const std::string& why) {
+  static constexpr std::string_view modulus_keys[] = {"physical.E1", "physical.nu1", "physical.E2",
+                                                      "physical.nu2"};
+  if (in.has("physical.reduced_modulus")) {
+    for (const auto key : modulus_keys) {
+      if (in.has(key))
+        in.fail(std::string(key),
+                "give either physical.reduced_modulus or E1, nu1, E2, nu2, not both");
+    }
+    return in.real("physical.reduced_modulus");
+  }
+  const std::string why_modulus = why + " (or give physical.reduced_modulus)";
+  const double E1 = in.required_real("physical.E1", why_modulus);
+  const double nu1 = in.required_real("physical.nu1", why_modulus);
+  const double E2 = in.required_real("physical.E2", why_modulus);
+  const double nu2 = in.required_real("physical.nu2", why_modulus);
+  return reduced_modulus(E1, nu1, E2, nu2);
+}
+
+/// The case of a [physical] section, with its reference scales; the [case]
+/// keys are refused beside it.
+PhysicalCase physical_case(const Inputs& in) {
   static constexpr std::string_view case_keys[] = {"case.M", "case.L", "case.lambda_bar",
                                                    "case.alpha_bar"};
-  if (in.any_in_section("physical")) {
-    for (const auto key : case_keys) {
-      if (in.has(key)) {
-        in.fail(std::string(key),
-                "cannot be combined with a [physical] section (M, L, lambda_bar and alpha_bar are "
-                "computed from it)");
-      }
+  for (const auto key : case_keys) {
+    if (in.has(key)) {
+      in.fail(std::string(key),
+              "cannot be combined with a [physical] section (M, L, lambda_bar and alpha_bar are "
+              "computed from it)");
     }
-    const std::string why = "with a [physical] section";
-    const auto exclusive = [&](const std::string& a, const std::string& b) {
-      if (in.has(a) && in.has(b)) in.fail(b, fmt::format("give either {} or {}, not both", a, b));
-      if (!in.has(a) && !in.has(b)) {
-        throw ConfigError(fmt::format("{} (or {}) is required {}", a, b, why), a);
-      }
-      return in.has(a) ? a : b;
-    };
-    PhysicalCase p;
-    p.reduced_radius_m = in.real(exclusive("physical.ball_radius", "physical.reduced_radius"));
-    p.mass_kg = exclusive("physical.ball_mass", "physical.ball_density") == "physical.ball_mass"
-                    ? in.real("physical.ball_mass")
-                    : sphere_mass(p.reduced_radius_m, in.real("physical.ball_density"));
-    p.impact_speed_m_s = in.required_real("physical.impact_speed", why);
-    static constexpr std::string_view modulus_keys[] = {"physical.E1", "physical.nu1",
-                                                        "physical.E2", "physical.nu2"};
-    if (in.has("physical.reduced_modulus")) {
-      for (const auto key : modulus_keys) {
-        if (in.has(key))
-          in.fail(std::string(key),
-                  "give either physical.reduced_modulus or E1, nu1, E2, nu2, not both");
-      }
-      p.reduced_modulus_Pa = in.real("physical.reduced_modulus");
-    } else {
-      const std::string why_modulus = why + " (or give physical.reduced_modulus)";
-      const double E1 = in.required_real("physical.E1", why_modulus);
-      const double nu1 = in.required_real("physical.nu1", why_modulus);
-      const double E2 = in.required_real("physical.E2", why_modulus);
-      const double nu2 = in.required_real("physical.nu2", why_modulus);
-      p.reduced_modulus_Pa = reduced_modulus(E1, nu1, E2, nu2);
-    }
-    p.eta0_Pa_s = in.required_real("physical.eta0", why);
-    p.alpha_per_Pa = in.required_real("physical.alpha", why);
-    p.rho0_kg_m3 = in.optional_real("physical.rho0").value_or(0.0);
-    p = with_reference_scales(p);
-    const MoesGroups g = moes_groups(p);
-    c.M = g.M;
-    c.L = g.L;
-    c.lambda_bar = g.lambda_bar;
-    c.alpha_bar = g.alpha_bar;
-    c.physical = p;
-    return;
   }
+  const std::string why = "with a [physical] section";
+  const auto exclusive = [&](const std::string& a, const std::string& b) {
+    if (in.has(a) && in.has(b)) in.fail(b, fmt::format("give either {} or {}, not both", a, b));
+    if (!in.has(a) && !in.has(b)) {
+      throw ConfigError(fmt::format("{} (or {}) is required {}", a, b, why), a);
+    }
+    return in.has(a) ? a : b;
+  };
+  PhysicalCase p;
+  p.reduced_radius_m = in.real(exclusive("physical.ball_radius", "physical.reduced_radius"));
+  p.mass_kg = exclusive("physical.ball_mass", "physical.ball_density") == "physical.ball_mass"
+                  ? in.real("physical.ball_mass")
+                  : sphere_mass(p.reduced_radius_m, in.real("physical.ball_density"));
+  p.impact_speed_m_s = in.required_real("physical.impact_speed", why);
+  p.reduced_modulus_Pa = physical_reduced_modulus(in, why);
+  p.eta0_Pa_s = in.required_real("physical.eta0", why);
+  p.alpha_per_Pa = in.required_real("physical.alpha", why);
+  p.rho0_kg_m3 = in.optional_real("physical.rho0").value_or(0.0);
+  return with_reference_scales(p);
+}
+
+/// M, L, lambda_bar and alpha_bar of a [case] section: lambda_bar or M, and
+/// alpha_bar or L.
+MoesGroups dimensionless_case(const Inputs& in) {
   if (in.has("case.lambda_bar") && in.has("case.M")) {
     in.fail("case.lambda_bar", "cannot be given together with case.M (give one of them)");
   }
   if (in.has("case.alpha_bar") && in.has("case.L")) {
     in.fail("case.alpha_bar", "cannot be given together with case.L (give one of them)");
   }
+  MoesGroups g;
   if (const auto lambda_bar = in.optional_real("case.lambda_bar")) {
-    c.lambda_bar = *lambda_bar;
-    c.M = moes_M(*lambda_bar);
+    g.lambda_bar = *lambda_bar;
+    g.M = moes_M(*lambda_bar);
   } else {
-    c.M = in.real("case.M");
-    c.lambda_bar = moes_lambda_bar(c.M);
+    g.M = in.real("case.M");
+    g.lambda_bar = moes_lambda_bar(g.M);
   }
   if (const auto alpha_bar = in.optional_real("case.alpha_bar")) {
-    c.alpha_bar = *alpha_bar;
-    c.L = moes_L(c.lambda_bar, *alpha_bar);
+    g.alpha_bar = *alpha_bar;
+    g.L = moes_L(g.lambda_bar, *alpha_bar);
   } else {
-    c.L = in.real("case.L");
-    c.alpha_bar = moes_alpha_bar(c.M, c.L);
+    g.L = in.real("case.L");
+    g.alpha_bar = moes_alpha_bar(g.M, g.L);
   }
+  return g;
+}
+
+void assemble_case(const Inputs& in, ImpactConfig& c) {
   c.physical.reset();
+  if (in.any_in_section("physical")) c.physical = physical_case(in);
+  const MoesGroups g = c.physical ? moes_groups(*c.physical) : dimensionless_case(in);
+  c.M = g.M;
+  c.L = g.L;
+  c.lambda_bar = g.lambda_bar;
+  c.alpha_bar = g.alpha_bar;
 }
 
 void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
