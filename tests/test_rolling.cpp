@@ -354,6 +354,47 @@ TEST(Rolling, RigidIsoviscousContactConvergesOnItsScalingLaw) {
   EXPECT_LT(ratio, 0.70);
 }
 
+TEST(Rolling, RigidBarusFilmIsTheIsoviscousOneInTheReducedPressureAndBounded) {
+  // Rigid, incompressible, Barus: q = (1 - exp(-alpha_bar P)) / alpha_bar
+  // turns the Reynolds equation into the isoviscous one (dq = dP / eta_bar,
+  // q >= 0 where P >= 0).  The isoviscous rigid film scales as P ~ H0^(-3/2)
+  // (RigidIsoviscousContactConvergesOnItsScalingLaw), so q_max at the
+  // piezoviscous film's H0 is P_max of the isoviscous one times
+  // (H0_iso / H0)^(3/2) (exact on an unbounded domain; 0.7 % here).
+  const double M = 10.0;
+  auto rigid = [&](double L) {
+    return load_rolling_config(std::nullopt, {"body.elastic=false", "case.M=" + std::to_string(M),
+                                              "case.L=" + std::to_string(L), "grid.points=129"});
+  };
+  const RollingResult iso = solve(rigid(0.0));
+  const RollingConfig barus_case = rigid(0.4);
+  const RollingResult barus = solve(barus_case);
+  const double ab = barus_case.alpha_bar;
+  const double q_max = -std::expm1(-ab * barus.P_max) / ab;
+  EXPECT_NEAR(q_max / (iso.P_max * std::pow(iso.H0 / barus.H0, 1.5)), 1.0, 0.02);
+  // Since q < 1 / alpha_bar, the load a film can carry is bounded: with the
+  // similarity above it is at most alpha_bar^(-1/3) P_max^(2/3) J, J the
+  // integral of -ln(1 - P / P_max) of the isoviscous film, so a film exists
+  // only while alpha_bar < P_max^2 J^3 / load^3 (0.425 here, L = 0.54).
+  const double h = iso.grid.h();
+  double J = 0.0;
+  for (int j = 0; j < iso.grid.n; ++j) {
+    for (int i = 0; i < iso.grid.n; ++i) {
+      const double r = iso.P(i, j) / iso.P_max;
+      if (r < 1.0) J -= std::log1p(-r) * h * h;  // the peak's cell: integrable, left out
+    }
+  }
+  const double alpha_bar_max = std::pow(iso.P_max, 2) * std::pow(J / kRollingLoad, 3);
+  EXPECT_GT(alpha_bar_max, 0.38);
+  EXPECT_LT(alpha_bar_max, 0.47);
+  EXPECT_LT(ab, 0.8 * alpha_bar_max);  // L = 0.4 is below the bound, and converged
+  // Above it (L = 0.7, alpha_bar = 0.55) the run fails, and says why.
+  const RollingConfig beyond = rigid(0.7);
+  ASSERT_GT(beyond.alpha_bar, 1.2 * alpha_bar_max);
+  const std::string message = failure_message(beyond);
+  EXPECT_NE(message.find("only below a bound on alpha_bar"), std::string::npos) << message;
+}
+
 TEST(Rolling, UnresolvedRigidFilmFailsWithAHint) {
   // M = 100, L = 0 rigid: the pressure zone sqrt(2 Hc) = 0.017 is under one
   // mesh of 129^2; H0 falls without a balance.  (On the domain a tenth the
