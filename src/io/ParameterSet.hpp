@@ -83,6 +83,10 @@ class Inputs {
 
 // Declaring keys: one call per key (no default: std::nullopt, with the text
 // --help shows instead).
+/// No bound on that side of the interval.
+inline constexpr std::optional<Bound> kUnbounded;
+/// A key without a default value.
+inline constexpr std::optional<double> kNoDefault;
 [[nodiscard]] Bound above(double v);
 [[nodiscard]] Bound at_least(double v);
 [[nodiscard]] Bound at_most(double v);

@@ -212,19 +212,19 @@ std::vector<std::string> spike_filter_choices() {
 }
 
 void add_spike_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  r.push_back(real("output.snapshot_start", kDefaults.snapshot_start, "", at_least(0), none, "",
-                   "the snapshots every output.snapshot_every steps begin at this time"));
-  r.push_back(integer("spike.smoothing_points", kDefaultSpike.smoothing_points, at_least(1), none,
-                      false,
+  r.push_back(real("output.snapshot_start", kDefaults.snapshot_start, "", at_least(0), kUnbounded,
+                   "", "the snapshots every output.snapshot_every steps begin at this time"));
+  r.push_back(integer("spike.smoothing_points", kDefaultSpike.smoothing_points, at_least(1),
+                      kUnbounded, false,
                       "moving average of the R-sorted P(R) over this many points (paper: 20)"));
-  r.push_back(real("spike.max_window_meshes", kDefaultSpike.max_window_meshes, "", above(0), none,
-                   "", "... spanning at most this many mesh sizes in R (acts near the centre)"));
+  r.push_back(real("spike.max_window_meshes", kDefaultSpike.max_window_meshes, "", above(0),
+                   kUnbounded, "",
+                   "... spanning at most this many mesh sizes in R (acts near the centre)"));
   r.push_back(choice("spike.filter", spike_filter_text(kDefaultSpike.filter),
                      spike_filter_choices(),
                      "zero-phase low-pass after the average: butterworth (2nd order, forward and "
                      "back), gaussian (ISO 16610-21) or none"));
-  r.push_back(real("spike.cutoff_meshes", kDefaultSpike.cutoff_meshes, "", above(0), none, "",
+  r.push_back(real("spike.cutoff_meshes", kDefaultSpike.cutoff_meshes, "", above(0), kUnbounded, "",
                    "cut-off wavelength of the filter in mesh sizes (amplitude 1/2 there); "
                    "> 2 spike.resample_meshes"));
   r.push_back(real("spike.resample_meshes", kDefaultSpike.resample_meshes, "", above(0), at_most(1),
@@ -238,55 +238,49 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
 
 /// [case]: the dimensionless impact (Moes M, L or lambda_bar, alpha_bar).
 void add_case_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
-  r.push_back(real("case.M", kDefaultM, "", above(0), none, "",
+  r.push_back(real("case.M", kDefaultM, "", above(0), kUnbounded, "",
                    "Moes load parameter; sets lambda_bar = (128 pi^3 / (3 M^4))^(1/3)"));
-  r.push_back(real("case.L", kDefaultL, "", at_least(0), none, "",
+  r.push_back(real("case.L", kDefaultL, "", at_least(0), kUnbounded, "",
                    "Moes lubricant parameter; sets alpha_bar = (L / pi) (3 M / 2)^(1/3)"));
-  r.push_back(real("case.lambda_bar", no_default, "from case.M", above(0), none, "",
+  r.push_back(real("case.lambda_bar", kNoDefault, "from case.M", above(0), kUnbounded, "",
                    "12 eta0 R^2 / (a*^2 t_bar ph*); alternative to case.M (not both)"));
-  r.push_back(real("case.alpha_bar", no_default, "from case.M and case.L", at_least(0), none, "",
-                   "alpha ph*; alternative to case.L (not both)"));
+  r.push_back(real("case.alpha_bar", kNoDefault, "from case.M and case.L", at_least(0), kUnbounded,
+                   "", "alpha ph*; alternative to case.L (not both)"));
 }
 
 /// [physical]: the impact in SI units (ball, bodies; the lubricant in
 /// add_physical_lubricant_parameters).
 void add_physical_case_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
-  r.push_back(real("physical.reduced_radius", no_default, "none", above(0), none, "m",
+  r.push_back(real("physical.reduced_radius", kNoDefault, "none", above(0), kUnbounded, "m",
                    "reduced radius of curvature R (or give physical.ball_radius)"));
-  r.push_back(real("physical.ball_radius", no_default, "none", above(0), none, "m",
+  r.push_back(real("physical.ball_radius", kNoDefault, "none", above(0), kUnbounded, "m",
                    "ball radius; a ball on a flat has R = ball radius"));
-  r.push_back(real("physical.ball_mass", no_default, "none", above(0), none, "kg",
+  r.push_back(real("physical.ball_mass", kNoDefault, "none", above(0), kUnbounded, "kg",
                    "ball mass m (or give physical.ball_density)"));
-  r.push_back(real("physical.ball_density", no_default, "none", above(0), none, "kg/m^3",
+  r.push_back(real("physical.ball_density", kNoDefault, "none", above(0), kUnbounded, "kg/m^3",
                    "ball density; m = density 4/3 pi R^3"));
-  r.push_back(real("physical.impact_speed", no_default, "none", above(0), none, "m/s",
+  r.push_back(real("physical.impact_speed", kNoDefault, "none", above(0), kUnbounded, "m/s",
                    "approach speed v0"));
-  r.push_back(real("physical.reduced_modulus", no_default, "from E1, nu1, E2, nu2", above(0), none,
-                   "Pa", "reduced modulus E' (or give E1, nu1, E2, nu2)"));
-  r.push_back(
-      real("physical.E1", no_default, "none", above(0), none, "Pa", "Young's modulus of the ball"));
-  r.push_back(real("physical.nu1", no_default, "none", at_least(0), at_most(kPoissonMax), "",
+  r.push_back(real("physical.reduced_modulus", kNoDefault, "from E1, nu1, E2, nu2", above(0),
+                   kUnbounded, "Pa", "reduced modulus E' (or give E1, nu1, E2, nu2)"));
+  r.push_back(real("physical.E1", kNoDefault, "none", above(0), kUnbounded, "Pa",
+                   "Young's modulus of the ball"));
+  r.push_back(real("physical.nu1", kNoDefault, "none", at_least(0), at_most(kPoissonMax), "",
                    "Poisson's ratio of the ball"));
-  r.push_back(
-      real("physical.E2", no_default, "none", above(0), none, "Pa", "Young's modulus of the flat"));
-  r.push_back(real("physical.nu2", no_default, "none", at_least(0), at_most(kPoissonMax), "",
+  r.push_back(real("physical.E2", kNoDefault, "none", above(0), kUnbounded, "Pa",
+                   "Young's modulus of the flat"));
+  r.push_back(real("physical.nu2", kNoDefault, "none", at_least(0), at_most(kPoissonMax), "",
                    "Poisson's ratio of the flat"));
   add_physical_lubricant_parameters(r);
-  r.push_back(real("physical.rho0", no_default, "none", above(0), none, "kg/m^3",
+  r.push_back(real("physical.rho0", kNoDefault, "none", above(0), kUnbounded, "kg/m^3",
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
 }
 
 /// [time]: step, end, step cap and the start of the ball.
 void add_time_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
-  r.push_back(real("time.dT", no_default, "the mesh size", above(0), none, "", "time step"));
+  r.push_back(real("time.dT", kNoDefault, "the mesh size", above(0), kUnbounded, "", "time step"));
   {
-    ParameterSpec t_end = real("time.T_end", no_default, "until lift-off", above(0), none, "",
+    ParameterSpec t_end = real("time.T_end", kNoDefault, "until lift-off", above(0), kUnbounded, "",
                                "end time; inf: until lift-off");
     t_end.allow_infinite = true;
     r.push_back(std::move(t_end));
@@ -299,43 +293,40 @@ void add_time_parameters(std::vector<ParameterSpec>& r) {
     cap.default_text = "4 dry lift-off times, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT";
     r.push_back(std::move(cap));
   }
-  r.push_back(real("time.Delta0", kDefaultDelta0, "", above(0), none, "",
+  r.push_back(real("time.Delta0", kDefaultDelta0, "", above(0), kUnbounded, "",
                    "initial separation Delta(0) (unit: delta*)"));
-  r.push_back(real("time.V0", kDefaultV0, "", above(0), none, "",
+  r.push_back(real("time.V0", kDefaultV0, "", above(0), kUnbounded, "",
                    "initial approach speed -dDelta/dT(0) (unit: v0)"));
 }
 
 /// [surface]: the waviness of the flat.
 void add_surface_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  r.push_back(real("surface.waviness_amplitude", 0.0, "", at_least(0), none, "",
+  r.push_back(real("surface.waviness_amplitude", 0.0, "", at_least(0), kUnbounded, "",
                    "amplitude A_w of a cosine waviness added to H (0: smooth)"));
-  r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), none, "",
+  r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), kUnbounded, "",
                    "wavelength of the waviness"));
-  r.push_back(real("surface.waviness_angle_deg", 0.0, "", none, none, "deg",
+  r.push_back(real("surface.waviness_angle_deg", 0.0, "", kUnbounded, kUnbounded, "deg",
                    "direction of the waviness wave vector, from the X axis"));
 }
 
 /// [output]: snapshots and checkpoints.
 void add_output_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  r.push_back(integer("output.snapshot_every", kDefaultSnapshotEvery, at_least(1), none, false,
-                      "store P and H every this many time steps"));
+  r.push_back(integer("output.snapshot_every", kDefaultSnapshotEvery, at_least(1), kUnbounded,
+                      false, "store P and H every this many time steps"));
   r.push_back(real_array("output.snapshot_times", at_least(0),
                          "also store the first step at or after each of these times"));
-  r.push_back(integer("output.checkpoint_every", 0, at_least(0), none, false,
+  r.push_back(integer("output.checkpoint_every", 0, at_least(0), kUnbounded, false,
                       "write checkpoint.nc (for `ehlsim impact --restart`) every this many "
                       "steps; 0: never"));
 }
 
 /// [solver]: the shared multigrid keys and the impact's retries, local Newton steps and symmetry.
 void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
   add_solver_parameters(r, kDefaults.solver_settings(),
                         "multigrid cycles per attempt of a time step (up to twice as many while "
                         "it converges steadily; a stalled step is retried with more damping)");
   r.push_back(real("solver.correction_safeguard", kDefaults.correction_safeguard, "", at_least(0),
-                   none, "",
+                   kUnbounded, "",
                    "in the retries of a step, undo a coarse-grid correction that raises the "
                    "residual norm of its level more than this many times (0: never)"));
   r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
@@ -359,13 +350,12 @@ void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
 }
 
 std::vector<ParameterSpec> build_registry() {
-  const std::optional<Bound> none;
   std::vector<ParameterSpec> r;
   add_case_parameters(r);
   add_physical_case_parameters(r);
   add_lubricant_parameters(r);
   add_body_and_grid_points_parameters(r, kDefaultGridPoints);
-  r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), none, "",
+  r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), kUnbounded, "",
                    "the domain is [-half_width, half_width]^2 (unit: a*)"));
   add_time_parameters(r);
   add_surface_parameters(r);
@@ -889,11 +879,9 @@ SolverSettings assemble_solver(const Inputs& in) {
 }
 
 void add_physical_lubricant_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
-  r.push_back(real("physical.eta0", no_default, "none", above(0), none, "Pa s",
+  r.push_back(real("physical.eta0", kNoDefault, "none", above(0), kUnbounded, "Pa s",
                    "ambient viscosity of the lubricant"));
-  r.push_back(real("physical.alpha", no_default, "none", at_least(0), none, "1/Pa",
+  r.push_back(real("physical.alpha", kNoDefault, "none", at_least(0), kUnbounded, "1/Pa",
                    "pressure-viscosity coefficient (alpha_bar = alpha times the Hertz pressure)"));
 }
 
@@ -905,8 +893,6 @@ void add_body_and_grid_points_parameters(std::vector<ParameterSpec>& r, int defa
 }
 
 void add_lubricant_parameters(std::vector<ParameterSpec>& r) {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
   // [lubricant]
   r.push_back(
       choice("lubricant.viscosity", kBarus, {std::string(kBarus), std::string(kRoelands)},
@@ -914,29 +900,29 @@ void add_lubricant_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(choice("lubricant.density", kIncompressible,
                      {std::string(kIncompressible), std::string(kDowsonHigginson)},
                      "density law: incompressible, or dowson-higginson (needs ph_star)"));
-  r.push_back(real("lubricant.eta0", no_default, "physical.eta0", above(0), none, "Pa s",
+  r.push_back(real("lubricant.eta0", kNoDefault, "physical.eta0", above(0), kUnbounded, "Pa s",
                    "roelands: ambient viscosity"));
-  r.push_back(real("lubricant.z", no_default, "from lubricant.alpha", at_least(0), none, "",
+  r.push_back(real("lubricant.z", kNoDefault, "from lubricant.alpha", at_least(0), kUnbounded, "",
                    "roelands: pressure-viscosity index z (or give lubricant.alpha)"));
-  r.push_back(real(
-      "lubricant.alpha", no_default, "physical.alpha, else alpha_bar / ph_star", at_least(0), none,
-      "1/Pa", "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
-  r.push_back(real("lubricant.ph_star", no_default, "ph* of [physical]", above(0), none, "Pa",
+  r.push_back(
+      real("lubricant.alpha", kNoDefault, "physical.alpha, else alpha_bar / ph_star", at_least(0),
+           kUnbounded, "1/Pa",
+           "roelands: alpha, converted to z = alpha p0 / (ln(eta0) + 9.67), p0 = 1.96e8 Pa"));
+  r.push_back(real("lubricant.ph_star", kNoDefault, "ph* of [physical]", above(0), kUnbounded, "Pa",
                    "reference Hertz pressure, needed by roelands and dowson-higginson"));
 }
 
 void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& defaults,
                            const std::string& max_cycles_doc) {
-  const std::optional<Bound> none;
   r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
                      {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
-  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), none, "",
+  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), kUnbounded, "",
                    "converged when the scaled finest-grid residual is below this"));
-  r.push_back(
-      integer("solver.max_cycles", defaults.max_cycles, at_least(1), none, false, max_cycles_doc));
-  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), none, false,
+  r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
+                      max_cycles_doc));
+  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), kUnbounded, false,
                       "relaxation sweeps before the coarse-grid correction"));
-  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), none, false,
+  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), kUnbounded, false,
                       "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
   r.push_back(integer("solver.coarsest_points", defaults.coarsest_points,
                       at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
@@ -945,7 +931,7 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      {std::string(kFft), std::string(kDirect)},
                      "deformation integrals: fft (zero-padded FFT convolution) or direct"));
   const reynolds::RelaxationSettings& relax = defaults.relaxation;
-  r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), none, "",
+  r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), kUnbounded, "",
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
                    "times the elastic coefficient of its transport term, else by distributive "
                    "Jacobi (impact, on meshes finer than 3/256: this times (3/256) / h)"));
@@ -967,9 +953,9 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
-  const std::optional<double> no_default;
-  r.push_back(real("solver.memory_limit_mb", no_default,
-                   "the available memory (MemAvailable of /proc/meminfo)", above(0), none, "MB",
+  r.push_back(real("solver.memory_limit_mb", kNoDefault,
+                   "the available memory (MemAvailable of /proc/meminfo)", above(0), kUnbounded,
+                   "MB",
                    "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
                    "this, before it starts"));
 }

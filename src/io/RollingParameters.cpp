@@ -15,45 +15,45 @@ namespace {
 const RollingConfig kDefaults{};
 
 std::vector<ParameterSpec> build_rolling_registry() {
-  const std::optional<Bound> none;
-  const std::optional<double> no_default;
   std::vector<ParameterSpec> r;
   // [case]
-  r.push_back(real("case.M", kDefaults.M, "", above(0), none, "",
+  r.push_back(real("case.M", kDefaults.M, "", above(0), kUnbounded, "",
                    "Moes load parameter W U^(-3/4); sets lambda_bar = (128 pi^3 / (3 M^4))^(1/3)"));
   r.push_back(
-      real("case.L", kDefaults.L, "", at_least(0), none, "",
+      real("case.L", kDefaults.L, "", at_least(0), kUnbounded, "",
            "Moes lubricant parameter alpha E' U^(1/4); alpha_bar = (L / pi) (3 M / 2)^(1/3)"));
-  r.push_back(real("case.D", kDefaults.D, "", above(0), none, "",
+  r.push_back(real("case.D", kDefaults.D, "", above(0), kUnbounded, "",
                    "ellipticity of the gap Rx / Ry (1: a ball; Rx along the rolling)"));
   // [physical]
-  r.push_back(real("physical.Rx", no_default, "none", above(0), none, "m",
+  r.push_back(real("physical.Rx", kNoDefault, "none", above(0), kUnbounded, "m",
                    "reduced radius of curvature along the rolling direction"));
-  r.push_back(real("physical.Ry", no_default, "physical.Rx", above(0), none, "m",
+  r.push_back(real("physical.Ry", kNoDefault, "physical.Rx", above(0), kUnbounded, "m",
                    "reduced radius of curvature across it"));
-  r.push_back(real("physical.load", no_default, "none", above(0), none, "N", "normal load w"));
   r.push_back(
-      real("physical.u1", no_default, "none", at_least(0), none, "m/s", "surface speed of body 1"));
-  r.push_back(real("physical.u2", no_default, "none", at_least(0), none, "m/s",
+      real("physical.load", kNoDefault, "none", above(0), kUnbounded, "N", "normal load w"));
+  r.push_back(real("physical.u1", kNoDefault, "none", at_least(0), kUnbounded, "m/s",
+                   "surface speed of body 1"));
+  r.push_back(real("physical.u2", kNoDefault, "none", at_least(0), kUnbounded, "m/s",
                    "surface speed of body 2 (u1 + u2 > 0; sliding does not change the "
                    "isothermal Newtonian film)"));
-  r.push_back(real("physical.reduced_modulus", no_default, "none", above(0), none, "Pa",
+  r.push_back(real("physical.reduced_modulus", kNoDefault, "none", above(0), kUnbounded, "Pa",
                    "reduced modulus E'"));
   add_physical_lubricant_parameters(r);
   add_lubricant_parameters(r);
   add_body_and_grid_points_parameters(r, kDefaults.grid_points);
-  r.push_back(real("grid.x_min", kDefaults.x_min, "", none, below(0), "", "inlet edge (unit: a)"));
-  r.push_back(real("grid.x_max", kDefaults.x_max, "", above(0), none, "", "outlet edge"));
-  r.push_back(real("grid.y_min", kDefaults.y_min, "", none, below(0), "",
+  r.push_back(
+      real("grid.x_min", kDefaults.x_min, "", kUnbounded, below(0), "", "inlet edge (unit: a)"));
+  r.push_back(real("grid.x_max", kDefaults.x_max, "", above(0), kUnbounded, "", "outlet edge"));
+  r.push_back(real("grid.y_min", kDefaults.y_min, "", kUnbounded, below(0), "",
                    "side edge; y_max - y_min = x_max - x_min (square cells on a square grid)"));
-  r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), none, "", "other side edge"));
+  r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), kUnbounded, "", "other side edge"));
   // [solver]
   add_solver_parameters(r, kDefaults,
                         "cycles on the finest grid, of all its attempts, before the run fails "
                         "(exit 1)");
   r.push_back(real("solver.h0_relaxation", kDefaults.h0_relaxation, "", above(0), at_most(1), "",
                    "fraction of the Newton change of H0 (force balance) applied after a cycle"));
-  r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), none, false,
+  r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), kUnbounded, false,
                       "cycles on each coarser grid of the full multigrid start"));
   return r;
 }
