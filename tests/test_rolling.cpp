@@ -300,12 +300,15 @@ TEST(Rolling, CentralFilmFeelsTheInletEdgeAtLowMAndHighL) {
   }
 }
 
-RollingConfig rigid_case(double M, int points, double scale) {
+/// Rigid bodies at M and L (isoviscous by default) on the default domain
+/// times `scale`.
+RollingConfig rigid_case(double M, int points, double scale, double L = 0.0) {
   auto at = [&](double v) { return std::to_string(v * scale); };
   return load_rolling_config(
-      std::nullopt, {"body.elastic=false", "case.L=0", "case.M=" + std::to_string(M),
-                     "grid.points=" + std::to_string(points), "grid.x_min=" + at(-4.5),
-                     "grid.x_max=" + at(1.5), "grid.y_min=" + at(-3), "grid.y_max=" + at(3)});
+      std::nullopt,
+      {"body.elastic=false", "case.L=" + std::to_string(L), "case.M=" + std::to_string(M),
+       "grid.points=" + std::to_string(points), "grid.x_min=" + at(-4.5), "grid.x_max=" + at(1.5),
+       "grid.y_min=" + at(-3), "grid.y_max=" + at(3)});
 }
 
 TEST(Rolling, RigidIsoviscousContactConvergesOnItsScalingLaw) {
@@ -362,10 +365,7 @@ TEST(Rolling, RigidBarusFilmIsTheIsoviscousOneInTheReducedPressureAndBounded) {
   // piezoviscous film's H0 is P_max of the isoviscous one times
   // (H0_iso / H0)^(3/2) (exact on an unbounded domain; 0.7 % here).
   const double M = 10.0;
-  auto rigid = [&](double L) {
-    return load_rolling_config(std::nullopt, {"body.elastic=false", "case.M=" + std::to_string(M),
-                                              "case.L=" + std::to_string(L), "grid.points=129"});
-  };
+  auto rigid = [&](double L) { return rigid_case(M, 129, 1.0, L); };
   const RollingResult iso = solve(rigid(0.0));
   const RollingConfig barus_case = rigid(0.4);
   const RollingResult barus = solve(barus_case);
