@@ -1372,6 +1372,18 @@ TEST(AttemptPolicy, DoesNotExtendASlowOrHopelessAttempt) {
 
 // A step that needed a heavier attempt makes it the next step's first; after
 // kStepsBeforeLighterAttempt steps solved there the next lighter one is tried.
+TEST(AttemptPolicy, EveryStepGetsEveryAttemptBeginningWithTheRememberedOne) {
+  // The more damped attempts first, then the lighter ones: a step that
+  // begins at the most damped attempt is not split (or kept above the
+  // tolerance) before the lighter ones have had their turn.
+  EXPECT_EQ(attempt_order(0), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(attempt_order(1), (std::vector<int>{1, 2, 3, 0}));
+  EXPECT_EQ(attempt_order(2), (std::vector<int>{2, 3, 1, 0}));
+  EXPECT_EQ(attempt_order(kMaxRetries), (std::vector<int>{3, 2, 1, 0}));
+  for (int first = 0; first <= kMaxRetries; ++first)
+    EXPECT_EQ(attempt_order(first).size(), static_cast<std::size_t>(kMaxRetries + 1)) << first;
+}
+
 TEST(AttemptMemory, StartsWhereTheLastStepConvergedAndStepsBackAfterAStreak) {
   AttemptMemory memory;
   memory = remember_attempt(memory, 0);

@@ -26,6 +26,13 @@ bool worth_extending(std::span<const double> history, double tolerance, int max_
 }
 }  // namespace
 
+std::vector<int> attempt_order(int first) {
+  std::vector<int> order;
+  for (int attempt = first; attempt <= kMaxRetries; ++attempt) order.push_back(attempt);
+  for (int attempt = first - 1; attempt >= 0; --attempt) order.push_back(attempt);
+  return order;
+}
+
 AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
   if (converged_in > memory.first) return {converged_in, 0};
   if (memory.first == 0 || ++memory.streak < kStepsBeforeLighterAttempt) return memory;

@@ -87,17 +87,6 @@ struct ImpactConfig : SolverSettings {
   /// The first retry of a step scales the under-relaxation by this, each
   /// further retry by half as much again (ImpactProblem.cpp, attempt_damping).
   double retry_damping = 0.8;
-  /// After each multigrid cycle of a time step that leaves the residual above
-  /// the tolerance: one Newton step on the window of this many meshes to each
-  /// side of the largest pressure-scaled residual (reynolds/LocalNewton.hpp);
-  /// 0: none.  6: on 513^2 the pocket collapse took 163 instead of 398 work
-  /// units per step and no step was kept above the tolerance (docs/
-  /// performance.md, "The local Newton step").
-  int local_newton_half_width = 6;
-  /// The most windows of a local Newton step, each centred on one of the
-  /// largest residuals, no two overlapping, all solved at the same iterate;
-  /// 0: one per 32 points of the solver's grid side (ImpactProblem.cpp).
-  int local_newton_windows = 0;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
   bool use_symmetry = true;

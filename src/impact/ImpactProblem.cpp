@@ -58,17 +58,6 @@ double attempt_damping(int attempt, double retry_damping) {
   return retry_damping * std::pow(kFurtherRetryDamping, attempt - 1);
 }
 
-/// With solver.local_newton_windows = 0, a local Newton step solves one window
-/// per this many points of the solver's grid side: 16 on the quadrant of
-/// 1025^2, 8 on 513^2, 4 on 257^2.  The errors the cycles leave sit in one
-/// ring (the spike's foot in the rebound, the closing pocket before lift-off)
-/// whose length in meshes grows with the grid.  Measured per step on the
-/// quadrant: 1025^2 rebound (T = 3.20-3.26), 93.2 work units with one window,
-/// 57.1 with 15, 54.7 with 30; 513^2 whole run 38.4 with one, 34.0 with 8 and
-/// 34.2 with 16; 257^2 31.1 with one, 28.0 with 4, 28.5 with 30 (and 25 % more
-/// time: most windows were undone) (docs/performance.md).
-constexpr int kPointsPerLocalNewtonWindow = 32;
-
 /// The mesh size on which solver.switch_ratio applies as given: that of the
 /// default case, 257^2 on [-1.5, 1.5]^2, where it was tuned (3).
 constexpr double kSwitchReferenceMesh = 3.0 / 256.0;
@@ -203,8 +192,6 @@ struct ImpactProblem::Impl {
   /// residual measure above `residual`, the measure before it.  Returns the
   /// measure after.
   double newton_on_worst_windows(const BallState& ball, double residual);
-  /// The windows of a local Newton step (solver.local_newton_windows).
-  [[nodiscard]] int local_newton_windows(const Grid2D& solver_grid) const;
   StepRecord make_record(int step, const BallState& ball, double force) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
@@ -334,8 +321,9 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
   const double start_delta = hierarchy.finest().delta();
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   BestIterate best;
-  const int first_attempt = attempt_memory.first;
-  for (int attempt = first_attempt;; ++attempt) {
+  const std::vector<int> attempts = attempt_order(attempt_memory.first);
+  for (const int attempt : attempts) {
+    const bool last_attempt = attempt == attempts.back();
     const double damping = attempt_damping(attempt, cfg.retry_damping);
     hierarchy.set_damping(damping);
     hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour ||
@@ -353,15 +341,15 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
       // A diverged attempt is never kept (only its iterates before it
       // diverged are candidates); when no attempt had a finite iterate, the
       // run cannot go on.
-      if (attempt == kMaxRetries && best.P.size() == 0) throw;
+      if (last_attempt && best.P.size() == 0) throw;
     }
     ++tally.attempts;
-    if (attempt > first_attempt) tally.retried = true;
+    if (attempt != attempts.front()) tally.retried = true;
     if (converged) {
       attempt_memory = remember_attempt(attempt_memory, attempt);
       return {fine.force(solver->solution()), true};
     }
-    if (attempt == kMaxRetries) break;
+    if (last_attempt) break;
     solver->solution() = start;
     set_delta(start_delta);
   }
@@ -446,26 +434,15 @@ bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const Ba
 double ImpactProblem::Impl::newton_on_worst_windows(const BallState& ball, double residual) {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   Field& P = solver->solution();
-  const Field P_start = P;
-  const double delta_start = fine.delta();
-  const std::vector<reynolds::Window> windows = reynolds::windows_at_largest_residuals(
-      fine, P, solver->rhs(), cfg.local_newton_half_width, local_newton_windows(fine.grid()));
-  reynolds::local_newton_step(fine, P, solver->rhs(), windows);
-  set_delta(newmark.delta_for_force(ball, fine.force(P)));
-  const double after = solver->residual_norm();
-  if (after <= residual) return after;
-  // Each window's own residual fell (local_newton_step), but together, with
-  // the Delta their force implies, they left the grid worse: in the collapse
-  // of M = 20, L = 20 on 129^2 a step at 9.3e-5 went to 8.7e-4 and its
-  // attempt was lost.  Taken back; the next cycle recomputes the coefficients.
-  P = P_start;
-  set_delta(delta_start);
-  return residual;
-}
-
-int ImpactProblem::Impl::local_newton_windows(const Grid2D& solver_grid) const {
-  if (cfg.local_newton_windows > 0) return cfg.local_newton_windows;
-  return std::max(1, solver_grid.n / kPointsPerLocalNewtonWindow);
+  const reynolds::GlobalUnknown delta{[&] {
+                                        set_delta(newmark.delta_for_force(ball, fine.force(P)));
+                                        return solver->residual_norm();
+                                      },
+                                      [&](double Delta) { set_delta(Delta); }};
+  return reynolds::newton_on_worst_windows(
+      fine, P, solver->rhs(),
+      reynolds::window_search(cfg.local_newton_half_width, cfg.local_newton_windows, fine.grid()),
+      residual, delta);
 }
 
 void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {

@@ -332,16 +332,6 @@ void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
                    "the first retry of a step scales both under-relaxation factors by this, "
                    "each further retry (up to 3) by half as much again"));
-  r.push_back(integer("solver.local_newton", kDefaults.local_newton_half_width, at_least(0),
-                      at_most(kMaxLocalNewtonHalfWidth), false,
-                      "after each cycle that leaves a time step above the tolerance, one Newton "
-                      "step on the points within this many meshes of the largest residuals "
-                      "(0: none)"));
-  r.push_back(integer("solver.local_newton_windows", kDefaults.local_newton_windows, at_least(0),
-                      at_most(kMaxLocalNewtonWindows), false,
-                      "the most windows of each local Newton step, centred on the largest "
-                      "residuals, no two overlapping (0: one per 32 points of the side of the "
-                      "grid solved on: 16 on the quadrant of 1025^2)"));
   r.push_back(choice("solver.symmetry", kSymmetryAuto,
                      {std::string(kSymmetryAuto), std::string(kSymmetryOff)},
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
@@ -864,6 +854,8 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
   c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
+  c.local_newton_half_width = in.integer("solver.local_newton");
+  c.local_newton_windows = in.integer("solver.local_newton_windows");
   const int grid_points = in.integer("grid.points");
   if (c.coarsest_points > grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", grid_points));
@@ -958,6 +950,16 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                    "MB",
                    "refuse a run whose memory estimate (run.json: invocation.memory) exceeds "
                    "this, before it starts"));
+  r.push_back(integer("solver.local_newton", defaults.local_newton_half_width, at_least(0),
+                      at_most(kMaxLocalNewtonHalfWidth), false,
+                      "after each cycle that leaves the finest grid above the tolerance, one "
+                      "Newton step on the points within this many meshes of the largest "
+                      "residuals (0: none)"));
+  r.push_back(integer("solver.local_newton_windows", defaults.local_newton_windows, at_least(0),
+                      at_most(kMaxLocalNewtonWindows), false,
+                      "the most windows of each local Newton step, centred on the largest "
+                      "residuals, no two overlapping (0: one per 32 points of the side of the "
+                      "grid solved on: 16 on the quadrant of 1025^2)"));
 }
 
 Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
@@ -1188,8 +1190,6 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   static_cast<SolverSettings&>(c) = assemble_solver(in);
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
-  c.local_newton_half_width = in.integer("solver.local_newton");
-  c.local_newton_windows = in.integer("solver.local_newton_windows");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   check_undeformed_gap(in, c);
   check_step_count(in, c);
@@ -1292,7 +1292,9 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
            c.relaxation.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep},
           {"face_mean", face_mean_text(c.face_mean)},
           {"memory_limit_mb",
-           c.memory_limit_mb > 0.0 ? nlohmann::json(c.memory_limit_mb) : nlohmann::json(nullptr)}};
+           c.memory_limit_mb > 0.0 ? nlohmann::json(c.memory_limit_mb) : nlohmann::json(nullptr)},
+          {"local_newton", c.local_newton_half_width},
+          {"local_newton_windows", c.local_newton_windows}};
 }
 
 nlohmann::json effective_parameters_json(const ImpactConfig& c) {
@@ -1337,8 +1339,6 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"] = solver_settings_json(c);
   j["solver"]["correction_safeguard"] = c.correction_safeguard;
   j["solver"]["retry_damping"] = c.retry_damping;
-  j["solver"]["local_newton"] = c.local_newton_half_width;
-  j["solver"]["local_newton_windows"] = c.local_newton_windows;
   j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},

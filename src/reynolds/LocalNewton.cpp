@@ -325,4 +325,23 @@ LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f
   return step;
 }
 
+WindowSearch window_search(int half_width, int windows, const Grid2D& grid) {
+  if (windows > 0) return {half_width, windows};
+  return {half_width, std::max(1, grid.n / kPointsPerLocalNewtonWindow)};
+}
+
+double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, WindowSearch search,
+                               double residual, const GlobalUnknown& global) {
+  const Field P_start = P;
+  const double delta_start = op.delta();
+  const std::vector<Window> windows =
+      windows_at_largest_residuals(op, P, f, search.half_width, search.count);
+  local_newton_step(op, P, f, windows);
+  const double after = global.settle();
+  if (after <= residual) return after;
+  P = P_start;
+  global.restore(delta_start);
+  return residual;
+}
+
 }  // namespace ehlsim::reynolds

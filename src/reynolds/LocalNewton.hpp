@@ -13,6 +13,7 @@
 // differentiates the same stencil (ReynoldsOperator::faces_at, taps_at) with
 // xi's own dependence on the pressure, through the rheology and through the
 // film (the elastic kernel), and solves the window's dense system at once.
+#include <functional>
 #include <vector>
 
 #include "grid/Grid.hpp"
@@ -64,5 +65,49 @@ struct LocalNewtonStep {
 /// for P.
 LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f,
                                   const std::vector<Window>& windows);
+
+/// Where and how wide the windows of a local Newton step are.
+struct WindowSearch {
+  int half_width;  ///< meshes to each side of a window's centre
+  int count;       ///< the most windows
+};
+
+/// With solver.local_newton_windows = 0, a local Newton step solves one window
+/// per this many points of the side of the grid solved on: 16 on the quadrant
+/// of 1025^2, 8 on 513^2, 4 on 257^2.  The errors the cycles leave sit in one
+/// ring (the impact's spike foot in the rebound, the closing pocket before
+/// lift-off) or line (the rolling contact's outlet spike) whose length in
+/// meshes grows with the grid.  Measured per step on the quadrant: 1025^2
+/// rebound (T = 3.20-3.26), 93.2 work units with one window, 57.1 with 15,
+/// 54.7 with 30; 513^2 whole run 38.4 with one, 34.0 with 8 and 34.2 with 16;
+/// 257^2 31.1 with one, 28.0 with 4, 28.5 with 30 (and 25 % more time: most
+/// windows were undone) (docs/performance.md).
+inline constexpr int kPointsPerLocalNewtonWindow = 32;
+
+/// The windows of a local Newton step on `grid`: `windows` of them (the
+/// setting solver.local_newton_windows), or with 0 one per
+/// kPointsPerLocalNewtonWindow points of the grid's side.
+[[nodiscard]] WindowSearch window_search(int half_width, int windows, const Grid2D& grid);
+
+/// What the mode around a local Newton step does with its global unknown
+/// (the impact's Delta, the rolling contact's H0), which every level of its
+/// hierarchy shares.
+struct GlobalUnknown {
+  /// After the step: brings the global unknown in line with the new P and
+  /// returns the residual measure of the grid.
+  std::function<double()> settle;
+  /// Puts the global unknown back to a value it had (the step is taken back).
+  std::function<void(double)> restore;
+};
+
+/// A local Newton step on the windows at the largest residuals
+/// (windows_at_largest_residuals, local_newton_step), kept only when it
+/// lowers the grid's residual measure `residual`: each window lowers its own
+/// residual, but together, with the global unknown their force implies, they
+/// can leave the grid worse (in the collapse of M = 20, L = 20 on 129^2 a
+/// step at 9.3e-5 went to 8.7e-4); then P and the global unknown are put
+/// back.  Returns the measure after.
+double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, WindowSearch search,
+                               double residual, const GlobalUnknown& global);
 
 }  // namespace ehlsim::reynolds

@@ -51,12 +51,17 @@ struct RollingConfig : SolverSettings {
   double h0_relaxation = 1.0;
   /// Cycles on each coarse level of the full multigrid start.
   int fmg_cycles = 4;
-  /// tolerance 1e-4: Hc is then within 2e-5 of itself at 1e-5 on 257^2 and
-  /// 513^2 (M = 100, L = 10), some 300 times below the discretisation error
-  /// (Hc moves 0.7 % from 257^2 to 513^2), at 8 cycles instead of 11.
+  /// tolerance 1e-4: Hc is then within 2e-4 of its value at 1e-6 on 257^2
+  /// (M = 100, L = 10; 2e-5 without the local Newton step of
+  /// SolverSettings::local_newton_half_width, whose windows clear the
+  /// residual of the outlet spike before the smooth error has gone), some 40
+  /// times below the discretisation error (Hc moves 0.7 % from 257^2 to
+  /// 513^2), in 6 cycles (9 without the windows).  1e-5 costs 8 cycles, but
+  /// the force balance of a rigid Barus contact near its bound on alpha_bar
+  /// converges at 0.96 per cycle and misses it (M = 10, L = 0.4 on 129^2).
   /// max_cycles bounds the finest-grid cycles of all attempts: at L = 20 the
-  /// damped retries converge at 0.85-0.95 per cycle (the outlet spike), and
-  /// M = 10 on 257^2 needs 75 cycles in all, M = 20 on 513^2 87.
+  /// damped retries converge at 0.85-0.95 per cycle (the outlet spike); M =
+  /// 10 on 513^2 needs 52 cycles in all (98 without the windows).
   RollingConfig() {
     tolerance = 1e-4;
     max_cycles = 100;

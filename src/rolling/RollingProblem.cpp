@@ -11,6 +11,7 @@
 
 #include "grid/FieldExtrema.hpp"
 #include "multigrid/Fas.hpp"
+#include "reynolds/LocalNewton.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
 #include "rolling/FilmFormula.hpp"
 
@@ -140,6 +141,11 @@ struct RollingProblem::Impl {
                    const CycleMonitor& monitor);
   /// One cycle on `level` and its record, numbered after the level's earlier cycles.
   RollingCycle cycle_on(int level);
+  /// One local Newton step on the finest grid after the cycle of `record`
+  /// (H0 stays: the next cycle balances the force); returns the residual
+  /// measure after it.  Throws StageDiverged where a window's Jacobian is
+  /// singular (an iterate that has blown up).
+  double newton_on_worst_windows(const RollingCycle& record);
   /// converge_on with retries at more damping when the stage diverges.
   bool solve_stage(int level, int cycles, const CycleMonitor& monitor);
   void update_h0(int level);
@@ -221,12 +227,30 @@ RollingCycle RollingProblem::Impl::cycle_on(int level) {
   record.points = op.grid().n;
   record.cycle = ++level_cycles;
   record.residual = solver->residual_norm(level);
+  if (level == 0 && cfg.local_newton_half_width > 0 && record.residual >= cfg.tolerance)
+    record.residual = newton_on_worst_windows(record);
   record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
   record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
   record.H0 = h0;
   record.work = hierarchy.work_units();
   history.push_back(record);
   return record;
+}
+
+double RollingProblem::Impl::newton_on_worst_windows(const RollingCycle& record) {
+  reynolds::ReynoldsOperator& fine = hierarchy.finest();
+  const reynolds::GlobalUnknown fixed_h0{[&] { return solver->residual_norm(0); },
+                                         [&](double H0) { set_h0(H0); }};
+  try {
+    return reynolds::newton_on_worst_windows(
+        fine, solver->solution(0), solver->rhs(0),
+        reynolds::window_search(cfg.local_newton_half_width, cfg.local_newton_windows, fine.grid()),
+        record.residual, fixed_h0);
+  } catch (const std::runtime_error& e) {
+    throw StageDiverged(
+        fmt::format("the multigrid iteration diverged on the {}^2 grid at cycle {} ({})",
+                    record.points, record.cycle, e.what()));
+  }
 }
 
 bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall, Iterate& best,
