@@ -389,7 +389,11 @@ TEST(Rolling, RigidBarusFilmIsTheIsoviscousOneInTheReducedPressureAndBounded) {
   const double M = 10.0;
   auto rigid = [&](double L) { return rigid_case(M, 129, 1.0, L); };
   const RollingResult iso = solve(rigid(0.0));
-  const RollingConfig barus_case = rigid(0.4);
+  RollingConfig barus_case = rigid(0.4);
+  // Near the bound the force balance converges at 0.96 per cycle: 1e-4
+  // after 100 cycles (RollingConfig::tolerance).  1e-4 decides q_max to
+  // well within the 2 % asked below.
+  barus_case.tolerance = 1e-4;
   const RollingResult barus = solve(barus_case);
   const double ab = barus_case.alpha_bar;
   const double q_max = -std::expm1(-ab * barus.P_max) / ab;

@@ -51,19 +51,21 @@ struct RollingConfig : SolverSettings {
   double h0_relaxation = 1.0;
   /// Cycles on each coarse level of the full multigrid start.
   int fmg_cycles = 4;
-  /// tolerance 1e-4: Hc is then within 2e-4 of its value at 1e-6 on 257^2
-  /// (M = 100, L = 10; 2e-5 without the local Newton step of
-  /// SolverSettings::local_newton_half_width, whose windows clear the
-  /// residual of the outlet spike before the smooth error has gone), some 40
-  /// times below the discretisation error (Hc moves 0.7 % from 257^2 to
-  /// 513^2), in 6 cycles (9 without the windows).  1e-5 costs 8 cycles, but
-  /// the force balance of a rigid Barus contact near its bound on alpha_bar
-  /// converges at 0.96 per cycle and misses it (M = 10, L = 0.4 on 129^2).
-  /// max_cycles bounds the finest-grid cycles of all attempts: at L = 20 the
-  /// damped retries converge at 0.85-0.95 per cycle (the outlet spike); M =
-  /// 10 on 513^2 needs 52 cycles in all (98 without the windows).
+  /// tolerance 1e-5: with the local Newton step after each finest-grid cycle
+  /// (SolverSettings::local_newton_half_width), whose windows clear the
+  /// residual of the outlet spike before the smooth error has gone, 1e-4 left
+  /// Hc 1.6e-3 from its converged value at M = 1000, L = 10 on 513^2 (5
+  /// cycles); 1e-5 leaves 6e-5 (9 cycles), and 1.6e-5 on the default case
+  /// (257^2, 8 cycles; 9 at 1e-4 without the windows), some 300 times below
+  /// the discretisation error (Hc moves 0.7 % from 257^2 to 513^2).  A rigid
+  /// Barus contact near its bound on alpha_bar balances its force at 0.96
+  /// per cycle and needs more than max_cycles for it (M = 10, L = 0.4 on
+  /// 129^2: force error 1e-4 after 100 cycles).  max_cycles bounds the
+  /// finest-grid cycles of all attempts: at L = 20 the damped retries
+  /// converge at 0.85-0.95 per cycle (the outlet spike); M = 10 on 513^2
+  /// needs 69 cycles in all.
   RollingConfig() {
-    tolerance = 1e-4;
+    tolerance = 1e-5;
     max_cycles = 100;
     pre_sweeps = 2;
     post_sweeps = 1;
