@@ -27,8 +27,8 @@ struct SolverSettings {
   /// pressure-scaled residuals (reynolds/LocalNewton.hpp); 0: none.  6: on
   /// 513^2 the impact's pocket collapse took 163 instead of 398 work units
   /// per step and no step was kept above the tolerance; the rolling contact
-  /// at L = 20 took 33 instead of 87 cycles (M = 20) and converges on 1025^2
-  /// (docs/performance.md).
+  /// at L = 20 on 513^2 took 33 instead of 87 cycles (M = 20, tolerance 1e-4;
+  /// docs/validation.md).
   int local_newton_half_width = 6;
   /// The most windows of a local Newton step, each centred on one of the
   /// largest residuals, no two overlapping, all solved at the same iterate;
