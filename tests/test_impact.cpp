@@ -1370,8 +1370,6 @@ TEST(AttemptPolicy, DoesNotExtendASlowOrHopelessAttempt) {
   EXPECT_EQ(judge_attempt(at_cap, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
 }
 
-// A step that needed a heavier attempt makes it the next step's first; after
-// kStepsBeforeLighterAttempt steps solved there the next lighter one is tried.
 TEST(AttemptPolicy, EveryStepGetsEveryAttemptBeginningWithTheRememberedOne) {
   // The more damped attempts first, then the lighter ones: a step that
   // begins at the most damped attempt is not split (or kept above the
@@ -1384,6 +1382,8 @@ TEST(AttemptPolicy, EveryStepGetsEveryAttemptBeginningWithTheRememberedOne) {
     EXPECT_EQ(attempt_order(first).size(), static_cast<std::size_t>(kMaxRetries + 1)) << first;
 }
 
+// A step that needed a heavier attempt makes it the next step's first; after
+// kStepsBeforeLighterAttempt steps solved there the next lighter one is tried.
 TEST(AttemptMemory, StartsWhereTheLastStepConvergedAndStepsBackAfterAStreak) {
   AttemptMemory memory;
   memory = remember_attempt(memory, 0);
