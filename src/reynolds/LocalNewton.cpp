@@ -341,6 +341,9 @@ double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, W
   if (after <= residual) return after;
   P = P_start;
   global.restore(delta_start);
+  // settle() brought the coefficients to the P taken back; the film and the
+  // rheology the caller reads next (the rolling contact's Hc) are P's again.
+  op.update_coefficients(P);
   return residual;
 }
 

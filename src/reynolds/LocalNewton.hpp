@@ -106,7 +106,8 @@ struct GlobalUnknown {
 /// residual, but together, with the global unknown their force implies, they
 /// can leave the grid worse (in the collapse of M = 20, L = 20 on 129^2 a
 /// step at 9.3e-5 went to 8.7e-4); then P and the global unknown are put
-/// back.  Returns the measure after.
+/// back.  Returns the measure after, and leaves the operator's coefficients
+/// up to date for P.
 double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, WindowSearch search,
                                double residual, const GlobalUnknown& global);
 
