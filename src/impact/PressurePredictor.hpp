@@ -17,8 +17,9 @@
 // that hardly changed, so its extrapolation is held within the peak's own
 // height; a pressure that changes alike over a neighbourhood (the approach,
 // the growing Hertzian dome) keeps the full extrapolation, and with it second
-// order.  The bound never removes the extrapolation of a smooth field whose
-// change in time per step is below its change from one point to the next.
+// order.  Where P is smooth, the bound takes nothing away from a point whose
+// change per step is below P's change to its neighbours, and at a smooth
+// maximum or minimum at most omega times the spread of the nine changes.
 #include "grid/Grid.hpp"
 
 namespace ehlsim {
