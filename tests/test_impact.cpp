@@ -1401,9 +1401,58 @@ TEST(AttemptMemory, StartsWhereTheLastStepConvergedAndStepsBackAfterAStreak) {
   memory = remember_attempt(memory, 2);
   EXPECT_EQ(memory.first, 1);
   EXPECT_EQ(memory.streak, 0);
+  EXPECT_TRUE(memory.probing);
   memory = remember_attempt(memory, kMaxRetries);  // the lighter one failed again
   EXPECT_EQ(memory.first, kMaxRetries);
   EXPECT_EQ(memory.streak, 0);
+  EXPECT_FALSE(memory.probing);
+}
+
+namespace {
+/// The steps solved in attempt `hard` until the memory probes the lighter one,
+/// from a memory that starts there.
+int steps_until_probe(AttemptMemory& memory, int hard) {
+  int steps = 0;
+  while (memory.first == hard) {
+    memory = remember_attempt(memory, hard);
+    ++steps;
+  }
+  return steps;
+}
+}  // namespace
+
+// Probes that fail one after the other come ever more rarely (the pocket
+// collapse of 1025^2, where every probe failed); one that succeeds makes the
+// next come after kStepsBeforeLighterAttempt steps again.
+TEST(AttemptMemory, ProbesThatFailBackOffAndOneThatSucceedsResetsThem) {
+  const int hard = 2;
+  AttemptMemory memory = remember_attempt({}, hard);
+  std::vector<int> intervals;
+  for (int probe = 0; probe <= kMaxProbeBackoff + 1; ++probe) {
+    intervals.push_back(steps_until_probe(memory, hard));
+    ASSERT_TRUE(memory.probing);
+    ASSERT_EQ(memory.first, hard - 1);
+    memory = remember_attempt(memory, hard);  // the probe failed
+    ASSERT_FALSE(memory.probing);
+  }
+  const int k = kStepsBeforeLighterAttempt;
+  EXPECT_EQ(intervals, (std::vector<int>{k, 2 * k, 4 * k, 8 * k, 8 * k}));
+  EXPECT_EQ(memory.failed_probes, kMaxProbeBackoff);
+
+  // A step in the attempt it began with that fails is no probe: it keeps the back-off.
+  memory = remember_attempt(memory, hard + 1);
+  EXPECT_EQ(memory.failed_probes, kMaxProbeBackoff);
+  memory = remember_attempt({hard, 0, kMaxProbeBackoff, false}, hard);
+  EXPECT_EQ(memory.streak, 1);
+
+  // A probe that converges: the next probe after k steps again.
+  memory = {hard - 1, 0, kMaxProbeBackoff, true};
+  memory = remember_attempt(memory, hard - 1);
+  EXPECT_EQ(memory.failed_probes, 0);
+  EXPECT_FALSE(memory.probing);
+  EXPECT_EQ(memory.streak, 1);
+  EXPECT_EQ(steps_until_probe(memory, hard - 1), k - 1);
+  EXPECT_EQ(memory.first, hard - 2);
 }
 
 // ---------------------------------------------------------------------------

@@ -965,7 +965,7 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   ehlsim::testing::rewrite_attribute(path, "format_version", 2);
   EXPECT_EQ(checkpoint_error(path),
             prefix +
-                "field 'format_version' is 2; this ehlsim reads version 4 only (checkpoints "
+                "field 'format_version' is 2; this ehlsim reads version 5 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
 }
 
@@ -999,6 +999,20 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
             prefix + "'attempts_first' = 4: must be in [0, 3]");
   EXPECT_EQ(error_of([](ImpactState& s) { s.attempts.streak = kStepsBeforeLighterAttempt; }),
             prefix + "'attempts_streak' = 3: must be in [0, 2]");
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.attempts.failed_probes = 1;
+              s.attempts.streak = 2 * kStepsBeforeLighterAttempt;
+            }),
+            prefix + "'attempts_streak' = 6: must be in [0, 5]");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.attempts.failed_probes = kMaxProbeBackoff + 1; }),
+            prefix + "'attempts_failed_probes' = 4: must be in [0, 3]");
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.attempts.first = kMaxRetries;
+              s.attempts.probing = true;
+            }),
+            prefix +
+                "'attempts_probing' = 1 with attempts_first = 3 and attempts_streak = 0: a "
+                "probe needs them below 3 and at 0");
   EXPECT_EQ(error_of([](ImpactState& s) {
               s.step = 0;
               s.summary.steps = 0;
@@ -1437,7 +1451,7 @@ TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
 
 TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
   // The size of a global-heap object of a DIMENSION_LIST set to 1.7e18: H5HG_read's memcpy.
-  const fs::path checkpoint = library_crash("checkpoint-v4-hdf5-H5HG_read-segv.nc");
+  const fs::path checkpoint = library_crash("checkpoint-v5-hdf5-H5HG_read-segv.nc");
   expect_library_crash(untrusted_checkpoint_error(checkpoint),
                        "cannot read checkpoint '" + checkpoint.string() + "': ");
   const fs::path fields = library_crash("fields-hdf5-H5HG_read-segv.nc");

@@ -34,9 +34,16 @@ std::vector<int> attempt_order(int first) {
 }
 
 AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
-  if (converged_in > memory.first) return {converged_in, 0};
-  if (memory.first == 0 || ++memory.streak < kStepsBeforeLighterAttempt) return memory;
-  return {memory.first - 1, 0};
+  if (converged_in > memory.first) {
+    const int failed_probes = memory.probing ? std::min(memory.failed_probes + 1, kMaxProbeBackoff)
+                                             : memory.failed_probes;
+    return {converged_in, 0, failed_probes, false};
+  }
+  if (memory.probing) memory.failed_probes = 0;
+  memory.probing = false;
+  if (memory.first == 0 || ++memory.streak < steps_before_probe(memory.failed_probes))
+    return memory;
+  return {memory.first - 1, 0, memory.failed_probes, true};
 }
 
 AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles) {

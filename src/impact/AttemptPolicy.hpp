@@ -43,16 +43,30 @@ inline constexpr int kMaxRetries = 3;
 /// first attempt of the rebound from T = 3.2 on diverged, and in the pocket
 /// collapse most steps failed three attempts, the one at damping 0.8 often
 /// only after 20 cycles.  So a step starts with the attempt that solved the
-/// step before, and after kStepsBeforeLighterAttempt steps solved that way it
-/// tries the next lighter one again (docs/performance.md: 1025^2, T = 4.10 to
+/// step before, and after a streak of steps solved that way it tries the next
+/// lighter one again: a probe (docs/performance.md: 1025^2, T = 4.10 to
 /// lift-off, 635 -> 317 work units per step; T = 3.20-3.35, 101 -> 108).
+/// Each probe that fails doubles the streak before the next one, up to
+/// kMaxProbeBackoff times; one that succeeds resets it.  In the pocket
+/// collapse of 1025^2 every probe at damping 0.8 failed, after 5-20 cycles:
+/// 193 of its 1106 cycles (docs/performance.md, "Probes that back off").
 struct AttemptMemory {
-  int first = 0;   ///< the attempt the next step starts with, in [0, kMaxRetries]
-  int streak = 0;  ///< steps solved in a row in attempt `first`, < kStepsBeforeLighterAttempt
+  int first = 0;          ///< the attempt the next step starts with, in [0, kMaxRetries]
+  int streak = 0;         ///< steps solved in a row in attempt `first`, < steps_before_probe
+  int failed_probes = 0;  ///< probes in a row that failed, in [0, kMaxProbeBackoff]
+  bool probing = false;   ///< `first` is a probe: the step before needed `first + 1`
 };
 /// Measured on 1025^2: 8 held the damped attempts for too long in the rebound
 /// (125 work units per step instead of 108 with 3).
 inline constexpr int kStepsBeforeLighterAttempt = 3;
+/// The most doublings of the streak before a probe: after three failed
+/// probes in a row, a probe every 24 steps.
+inline constexpr int kMaxProbeBackoff = 3;
+
+/// The steps to solve in attempt `first` before the next probe.
+[[nodiscard]] constexpr int steps_before_probe(int failed_probes) {
+  return kStepsBeforeLighterAttempt << failed_probes;
+}
 
 /// The memory after a step that started in `memory.first` converged in
 /// attempt `converged_in`.

@@ -29,7 +29,8 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// 2: summary_initial_elastic_energy (the energy bounds of a run).
 /// 3: checksum_crc32 over every stored value; the reader checks plausibility.
 /// 4: attempts_first and attempts_streak (impact/AttemptPolicy.hpp).
-constexpr int kFormatVersion = 4;
+/// 5: attempts_failed_probes and attempts_probing (the same).
+constexpr int kFormatVersion = 5;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -65,6 +66,7 @@ void for_each_integer(State& s, Visit&& visit) {
   visit("summary_retried_steps", s.summary.retried_steps);
   visit("attempts_first", s.attempts.first);
   visit("attempts_streak", s.attempts.streak);
+  visit("attempts_failed_probes", s.attempts.failed_probes);
 }
 
 template <class State, class Visit>
@@ -165,6 +167,7 @@ std::uint32_t checkpoint_checksum(const ImpactState& s, std::string_view paramet
     crc.add_value(value);
   });
   crc.add_value(s.had_pressure ? 1 : 0);
+  crc.add_value(s.attempts.probing ? 1 : 0);
   crc.add_value(s.P.n());
   for_each_field(s, [&](const char* name, const char*, const Field& f) {
     crc.add(name);
@@ -320,9 +323,17 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
   if (s.attempts.first < 0 || s.attempts.first > kMaxRetries)
     in.fail("attempts_first",
             fmt::format("= {}: must be in [0, {}]", s.attempts.first, kMaxRetries));
-  if (s.attempts.streak < 0 || s.attempts.streak >= kStepsBeforeLighterAttempt)
-    in.fail("attempts_streak", fmt::format("= {}: must be in [0, {}]", s.attempts.streak,
-                                           kStepsBeforeLighterAttempt - 1));
+  if (s.attempts.failed_probes < 0 || s.attempts.failed_probes > kMaxProbeBackoff)
+    in.fail("attempts_failed_probes",
+            fmt::format("= {}: must be in [0, {}]", s.attempts.failed_probes, kMaxProbeBackoff));
+  if (s.attempts.probing && (s.attempts.first >= kMaxRetries || s.attempts.streak != 0))
+    in.fail("attempts_probing", fmt::format("= 1 with attempts_first = {} and attempts_streak = "
+                                            "{}: a probe needs them below {} and at 0",
+                                            s.attempts.first, s.attempts.streak, kMaxRetries));
+  const int most_streak = steps_before_probe(s.attempts.failed_probes) - 1;
+  if (s.attempts.streak < 0 || s.attempts.streak > most_streak)
+    in.fail("attempts_streak",
+            fmt::format("= {}: must be in [0, {}]", s.attempts.streak, most_streak));
   check_fields_plausible(in, s);
 }
 
@@ -349,9 +360,11 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
     for_each_integer(state, [&](const char* name, int value) {
       nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
     });
-    const int had_pressure = state.had_pressure ? 1 : 0;
-    nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "had_pressure", NC_INT, 1, &had_pressure),
-             "had_pressure");
+    for (const auto& [name, flag] : {std::pair{"had_pressure", state.had_pressure},
+                                     std::pair{"attempts_probing", state.attempts.probing}}) {
+      const int value = flag ? 1 : 0;
+      nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
+    }
     const std::uint32_t checksum = checkpoint_checksum(state, parameters_text, EHLSIM_VERSION);
     nc.check(nc_put_att_uint(nc.id, NC_GLOBAL, kChecksumAttribute, NC_UINT, 1, &checksum),
              kChecksumAttribute);
@@ -407,6 +420,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   for_each_scalar(s, [&](const char* name, double& value) { value = in.scalar<double>(name); });
   for_each_integer(s, [&](const char* name, int& value) { value = in.scalar<int>(name); });
   s.had_pressure = in.scalar<int>("had_pressure") != 0;
+  s.attempts.probing = in.scalar<int>("attempts_probing") != 0;
   const CheckpointGrid layout = checkpoint_grid(in, c.parameters);
   const Grid2D grid(layout.n, layout.half_width);
   for_each_field(s, [&](const char* name, const char*, Field& f) {
