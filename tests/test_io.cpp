@@ -869,7 +869,8 @@ TEST(Checkpoint, RoundTripIsExact) {
   TempDir dir;
   const nlohmann::json parameters = small_case_parameters();
   ImpactState s = plausible_state(parameters);
-  s.P_before[5] = 1e-300;  // every bit must survive
+  s.P_before[5] = 1e-300;        // every bit must survive
+  s.attempts = {2, 0, 2, true};  // a probe of attempt 2 after two failed ones
   const fs::path path = dir / "checkpoint.nc";
   write_checkpoint(path, s, parameters);
   EXPECT_FALSE(fs::exists(path.string() + PartialFile::kSuffix));
@@ -891,6 +892,10 @@ TEST(Checkpoint, RoundTripIsExact) {
   EXPECT_EQ(r.summary.impulse, 1.0 / 3.0);
   EXPECT_EQ(r.summary.unconverged_steps, 3);
   EXPECT_EQ(r.summary.retried_steps, 5);
+  EXPECT_EQ(r.attempts.first, 2);
+  EXPECT_EQ(r.attempts.streak, 0);
+  EXPECT_EQ(r.attempts.failed_probes, 2);
+  EXPECT_TRUE(r.attempts.probing);
   const std::array<std::pair<const Field*, const Field*>, 4> fields = {
       {{&r.P, &s.P},
        {&r.P_before, &s.P_before},
