@@ -69,6 +69,13 @@ void for_each_integer(State& s, Visit&& visit) {
   visit("attempts_failed_probes", s.attempts.failed_probes);
 }
 
+/// The flags of the state, stored as integer attributes 0 or 1.
+template <class State, class Visit>
+void for_each_flag(State& s, Visit&& visit) {
+  visit("had_pressure", s.had_pressure);
+  visit("attempts_probing", s.attempts.probing);
+}
+
 template <class State, class Visit>
 void for_each_field(State& s, Visit&& visit) {
   visit("P", "pressure at the last time level", s.P);
@@ -166,8 +173,7 @@ std::uint32_t checkpoint_checksum(const ImpactState& s, std::string_view paramet
     crc.add(name);
     crc.add_value(value);
   });
-  crc.add_value(s.had_pressure ? 1 : 0);
-  crc.add_value(s.attempts.probing ? 1 : 0);
+  for_each_flag(s, [&](const char*, bool flag) { crc.add_value(flag ? 1 : 0); });
   crc.add_value(s.P.n());
   for_each_field(s, [&](const char* name, const char*, const Field& f) {
     crc.add(name);
@@ -360,11 +366,10 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
     for_each_integer(state, [&](const char* name, int value) {
       nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
     });
-    for (const auto& [name, flag] : {std::pair{"had_pressure", state.had_pressure},
-                                     std::pair{"attempts_probing", state.attempts.probing}}) {
+    for_each_flag(state, [&](const char* name, bool flag) {
       const int value = flag ? 1 : 0;
       nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
-    }
+    });
     const std::uint32_t checksum = checkpoint_checksum(state, parameters_text, EHLSIM_VERSION);
     nc.check(nc_put_att_uint(nc.id, NC_GLOBAL, kChecksumAttribute, NC_UINT, 1, &checksum),
              kChecksumAttribute);
@@ -419,8 +424,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   ImpactState& s = c.state;
   for_each_scalar(s, [&](const char* name, double& value) { value = in.scalar<double>(name); });
   for_each_integer(s, [&](const char* name, int& value) { value = in.scalar<int>(name); });
-  s.had_pressure = in.scalar<int>("had_pressure") != 0;
-  s.attempts.probing = in.scalar<int>("attempts_probing") != 0;
+  for_each_flag(s, [&](const char* name, bool& flag) { flag = in.scalar<int>(name) != 0; });
   const CheckpointGrid layout = checkpoint_grid(in, c.parameters);
   const Grid2D grid(layout.n, layout.half_width);
   for_each_field(s, [&](const char* name, const char*, Field& f) {
