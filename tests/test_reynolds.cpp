@@ -145,6 +145,39 @@ TEST(LineRelaxation, QuadrantSweepsEqualFullGridSweeps) {
   EXPECT_NEAR(op_quadrant.force(Pq), op_full.force(P), 1e-13);
 }
 
+// The switch ratio on a mesh finer than its reference grows like 1/h: a
+// relaxation with ratio 15 and a reference of twice the mesh sweeps as one
+// with ratio 30 does, to the bit; with a reference finer than the mesh the
+// ratio is used as given.  The two ratios do
+// choose differently here, so the comparison can fail.
+TEST(LineRelaxation, TheSwitchRatioGrowsOnMeshesFinerThanItsReference) {
+  const Grid2D grid(33, 1.5);
+  const auto sweep = [&](double ratio, double reference) {
+    auto [P, f] = contact_data(grid, 7, [](double x, double y) { return 1.0 + 0.2 * x * y; });
+    ReynoldsOperator op = contact_operator(grid);
+    RelaxationSettings relax;
+    relax.switch_ratio = ratio;
+    relax.switch_reference_mesh = reference;
+    LineRelaxation smoother(op, relax);
+    smoother.relax(P, f, 2);
+    return std::pair{P, smoother.last_sweep().jacobi_points};
+  };
+  const double h = grid.h();
+  EXPECT_DOUBLE_EQ(switch_ratio_on({.switch_ratio = 3.0, .switch_reference_mesh = 4.0 * h}, h),
+                   12.0);
+  EXPECT_DOUBLE_EQ(switch_ratio_on({.switch_ratio = 3.0, .switch_reference_mesh = h}, h), 3.0);
+  const auto [P30, jacobi30] = sweep(30.0, 0.0);
+  const auto [P15, jacobi15] = sweep(15.0, 0.0);
+  ASSERT_NE(jacobi30, jacobi15);
+  const auto [P_raised, jacobi_raised] = sweep(15.0, 2.0 * h);
+  EXPECT_EQ(jacobi_raised, jacobi30);
+  EXPECT_TRUE(std::equal(P_raised.span().begin(), P_raised.span().end(), P30.span().begin()));
+  const auto [P_coarse_reference, jacobi_coarse_reference] = sweep(30.0, 0.5 * h);
+  EXPECT_EQ(jacobi_coarse_reference, jacobi30);
+  EXPECT_TRUE(std::equal(P_coarse_reference.span().begin(), P_coarse_reference.span().end(),
+                         P30.span().begin()));
+}
+
 TEST(BandMatrix, SolvesPentadiagonalSystemsToRoundOff) {
   constexpr int kSize = 40, kHalfBand = 2;
   std::mt19937 rng(2022);

@@ -63,8 +63,9 @@ double attempt_damping(int attempt, double retry_damping) {
 /// default case, 257^2 on [-1.5, 1.5]^2, where it was tuned (3).
 constexpr double kSwitchReferenceMesh = 3.0 / 256.0;
 
-/// The relaxation settings of a run on mesh size h: on finer meshes the
-/// switch ratio grows like 1/h.  The flow part of the ratio grows like
+/// The relaxation settings of a run: on meshes finer than the reference the
+/// switch ratio grows like 1/h, on each multigrid level by that level's own
+/// mesh (reynolds::switch_ratio_on).  The flow part of the ratio grows like
 /// 1/h^2 and the elastic-squeeze part stays O(1) at dT = h, so with a fixed
 /// ratio ever more points near the contact turn Gauss-Seidel as the mesh is
 /// refined; Venner & Lubrecht's switch compares the flow with the elastic term
@@ -72,9 +73,12 @@ constexpr double kSwitchReferenceMesh = 3.0 / 256.0;
 /// of a contact step diverged with 3 and converged in 2-3 cycles with 10 or
 /// 30; at 513^2 (T = 3.40-3.60) 6 cut the retried steps from 27 to 8 of 35
 /// and the work by 8 %, with the contact phase unchanged; at 257^2, 10 cost
-/// 18 % more work than 3.  Coarser meshes keep the ratio as given.
-reynolds::RelaxationSettings relaxation_for(reynolds::RelaxationSettings settings, double h) {
-  settings.switch_ratio *= std::max(1.0, kSwitchReferenceMesh / h);
+/// 18 % more work than 3.  Coarser meshes keep the ratio as given.  By level,
+/// not the finest grid's ratio on every level: the rebound of 1025^2 from
+/// T = 3.47 to 3.62 took 52.2 instead of 58.4 work units per step, from
+/// T = 3.73 to 3.88 73.0 instead of 75.7 (docs/performance.md).
+reynolds::RelaxationSettings relaxation_for(reynolds::RelaxationSettings settings) {
+  settings.switch_reference_mesh = kSwitchReferenceMesh;
   return settings;
 }
 
@@ -247,7 +251,7 @@ ImpactProblem::Impl::Impl(const ImpactConfig& config)
       dT(config.dT > 0.0 ? config.dT : grid.h()),
       newmark(dT),
       hierarchy(grid, make_lubricant(config), operator_settings(config),
-                relaxation_for(config.relaxation, grid.h()), config),
+                relaxation_for(config.relaxation), config),
       solver(&hierarchy.solver()),
       rhoH_now(grid),
       rhoH_old(grid),

@@ -926,7 +926,8 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
   r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), kUnbounded, "",
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
                    "times the elastic coefficient of its transport term, else by distributive "
-                   "Jacobi (impact, on meshes finer than 3/256: this times (3/256) / h)"));
+                   "Jacobi (impact: on each multigrid level of mesh h finer than 3/256, this times "
+                   "(3/256) / h)"));
   r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0), at_most(1),
                    "", "under-relaxation of the Gauss-Seidel line changes"));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",

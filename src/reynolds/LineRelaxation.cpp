@@ -32,8 +32,14 @@ GridPoint line_point(LineDirection direction, int line, int a) {
 }
 }  // namespace
 
+double switch_ratio_on(const RelaxationSettings& settings, double h) {
+  if (settings.switch_reference_mesh <= h) return settings.switch_ratio;
+  return settings.switch_ratio * settings.switch_reference_mesh / h;
+}
+
 LineRelaxation::LineRelaxation(ReynoldsOperator& op, RelaxationSettings settings)
     : op_(op), settings_(settings), jacobi_change_(op.grid()) {
+  settings_.switch_ratio = switch_ratio_on(settings, op.grid().h());
   // Elastic kernels between points `a` meshes apart along a line and `c`
   // across it: of a plain change at one point, and of a distributed one (-1/4
   // at the four neighbours).  K is even in both offsets.

@@ -40,6 +40,10 @@ struct RelaxationSettings {
   /// flow term amplify smooth errors (seen as divergence at the dimple
   /// formation on 257^2 with 0.3; docs/model.md).
   double switch_ratio = 3.0;
+  /// On a grid whose mesh h is finer than this, the switch ratio is
+  /// switch_ratio * switch_reference_mesh / h (each level of a hierarchy by
+  /// its own mesh); 0: switch_ratio on every grid (switch_ratio_on).
+  double switch_reference_mesh = 0.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
   double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
   /// Sweeps alternate between lines along X and lines along Y (X, Y, X, ...
@@ -56,6 +60,10 @@ struct RelaxationSettings {
   /// section 7).
   bool deformation_each_colour = false;
 };
+
+/// The switch ratio a relaxation on mesh size h uses (the settings'
+/// switch_ratio, raised on meshes finer than switch_reference_mesh).
+[[nodiscard]] double switch_ratio_on(const RelaxationSettings& settings, double h);
 
 /// The grid direction the lines of a sweep run along.
 enum class LineDirection { X, Y };
