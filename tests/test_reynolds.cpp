@@ -148,8 +148,8 @@ TEST(LineRelaxation, QuadrantSweepsEqualFullGridSweeps) {
 // The switch ratio on a mesh finer than its reference grows like 1/h: a
 // relaxation with ratio 15 and a reference of twice the mesh sweeps as one
 // with ratio 30 does, to the bit; with a reference finer than the mesh the
-// ratio is used as given.  The two ratios do
-// choose differently here, so the comparison can fail.
+// ratio is used as given.  The two ratios choose differently here, so the
+// comparison can fail.
 TEST(LineRelaxation, TheSwitchRatioGrowsOnMeshesFinerThanItsReference) {
   const Grid2D grid(33, 1.5);
   const auto sweep = [&](double ratio, double reference) {

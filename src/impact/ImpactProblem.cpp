@@ -10,6 +10,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dynamics/Bdf.hpp"
@@ -293,18 +294,18 @@ double ImpactProblem::Impl::choose_start(double omega) {
     // (Measured on 257^2: fewer stalled steps, and the saved retries pay for
     // the extra residual evaluation.)
     Field& P = solver->solution();
-    const Field last = P;
-    bounded_extrapolation(last, P_before, omega, P);
+    Field other = P;  // the last solution
+    bounded_extrapolation(other, P_before, omega, P);
     double residual = solver->residual_norm();
-    const Field extrapolated = P;
-    P = last;
+    std::swap(P, other);  // P: the last solution, other: the extrapolation
     const double last_start_residual = solver->residual_norm();
     if (last_start_residual < residual) {
       residual = last_start_residual;
+      P_before = P;
     } else {
-      P = extrapolated;
+      std::swap(P, other);
+      P_before = std::move(other);
     }
-    P_before = last;
     return residual;
   }
   // The first two levels start from the last solution (the first: the T = 0 pressure).
