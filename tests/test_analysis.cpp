@@ -85,6 +85,23 @@ TEST(SpikeAnalysis, ADomeWithoutBumpHasNoSpike) {
   EXPECT_FALSE(a.axial.has_value());
 }
 
+// The field of the last step with pressure before lift-off: a spike profile
+// scaled down to 1e-8 of the Hertz pressure.  The relative rules alone find
+// its spike; spike.min_pressure says there is none.
+TEST(SpikeAnalysis, AVanishingFieldHasNoSpike) {
+  const Grid2D grid(kPoints, kHalfWidth);
+  const SyntheticSpike spike;
+  const Field P = sample(grid, [&](double R) { return 1e-8 * spike(R); });
+  SpikeSettings relative_only;
+  relative_only.min_pressure = 0.0;
+  const SpikeAnalysis found = analyze_spike(grid, P.span(), relative_only);
+  ASSERT_TRUE(found.radial.has_value());
+  ASSERT_TRUE(found.axial.has_value());
+  const SpikeAnalysis a = analyze_spike(grid, P.span(), SpikeSettings{});
+  EXPECT_FALSE(a.radial.has_value()) << a.radial->position;
+  EXPECT_FALSE(a.axial.has_value());
+}
+
 TEST(SpikeAnalysis, SpikeMovingAtAKnownSpeed) {
   const Grid2D grid(kPoints, kHalfWidth);
   const double dT = grid.h();  // as the solver: dT = h

@@ -244,7 +244,7 @@ std::optional<Peak> outermost_peak(const Profile& profile, const PeakRule& rule)
   const std::size_t n = v.size();
   if (n < 3) return std::nullopt;
   const double top = *std::max_element(v.begin(), v.end());
-  if (!(top > 0.0)) return std::nullopt;
+  if (!(top > 0.0) || top < rule.min_top) return std::nullopt;
   for (std::size_t m = n - 2; m >= 1; --m) {
     const bool local_max = v[m] > v[m - 1] && v[m] >= v[m + 1];
     if (!local_max || v[m] < rule.min_height * top) continue;
@@ -283,9 +283,10 @@ SpikeAnalysis analyze_spike(const RadialOrder& order, std::span<const double> P,
   out.filtered.value = low_pass(out.filtered.value, settings.resample_meshes * h, settings.filter,
                                 settings.cutoff_meshes * h);
   out.axis = axis_profile(grid, P);
-  const PeakRule rule{settings.min_height, settings.min_prominence, true};
+  const PeakRule rule{settings.min_height, settings.min_prominence, settings.min_pressure, true};
   out.radial = outermost_peak(out.filtered, rule);
-  out.axial = outermost_peak(out.axis, PeakRule{rule.min_height, rule.min_prominence, false});
+  out.axial =
+      outermost_peak(out.axis, PeakRule{rule.min_height, rule.min_prominence, rule.min_top, false});
   return out;
 }
 

@@ -80,6 +80,7 @@ struct Peak {
 struct PeakRule {
   double min_height = 0.0;      ///< fraction of the profile's maximum
   double min_prominence = 0.0;  ///< fraction of the profile's maximum
+  double min_top = 0.0;         ///< no peak where the profile's maximum is below this
   /// Locate the maximum between samples (parabola through the three samples
   /// around it, uniform spacing); otherwise report the sample itself.
   bool interpolate = true;

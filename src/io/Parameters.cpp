@@ -234,6 +234,10 @@ void add_spike_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("spike.min_prominence", kDefaultSpike.min_prominence, "", at_least(0),
                    at_most(1), "",
                    "and rises this fraction of it above the lowest point inward of it"));
+  r.push_back(real("spike.min_pressure", kDefaultSpike.min_pressure, "", at_least(0), kUnbounded,
+                   "",
+                   "no spike where the largest pressure of the profile is below this (units of "
+                   "the Hertz pressure; the vanishing field before lift-off)"));
 }
 
 /// [case]: the dimensionless impact (Moes M, L or lambda_bar, alpha_bar).
@@ -1206,6 +1210,7 @@ void assemble_spike(const Inputs& in, ImpactConfig& c) {
   s.resample_meshes = in.real("spike.resample_meshes");
   s.min_height = in.real("spike.min_height");
   s.min_prominence = in.real("spike.min_prominence");
+  s.min_pressure = in.real("spike.min_pressure");
   if (s.filter != SpikeFilter::None && !(s.cutoff_meshes > 2.0 * s.resample_meshes)) {
     in.fail("spike.cutoff_meshes",
             fmt::format("must be > 2 spike.resample_meshes = {:g} (the shortest wave the "
@@ -1348,7 +1353,8 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                 {"cutoff_meshes", c.spike.cutoff_meshes},
                 {"resample_meshes", c.spike.resample_meshes},
                 {"min_height", c.spike.min_height},
-                {"min_prominence", c.spike.min_prominence}};
+                {"min_prominence", c.spike.min_prominence},
+                {"min_pressure", c.spike.min_pressure}};
   return j;
 }
 

@@ -10,7 +10,10 @@ fi
 # On the development VM, Xvfb drops about one connection in ten during the X
 # handshake (measured: 6 to 65 failed xcb_connect of 300), and pvbatch then
 # aborts with "bad X server connection".  Only that failure is tried again.
-readonly ATTEMPTS=3
+# With both cores busy it is far more: 6 of 15 starts failed (2026-11-26),
+# and a CI rehearsal lost all of 3 attempts; 8 attempts fail together about
+# once in 1500 at that rate.
+readonly ATTEMPTS=8
 script="$(dirname "$0")/open_fields.py"
 for attempt in $(seq "$ATTEMPTS"); do
   status=0
@@ -20,5 +23,6 @@ for attempt in $(seq "$ATTEMPTS"); do
     exit "$status"
   fi
   echo "pvbatch could not connect to the virtual X display (attempt $attempt of $ATTEMPTS)"
+  sleep 1
 done
 exit "$status"
