@@ -285,8 +285,10 @@ SpikeAnalysis analyze_spike(const RadialOrder& order, std::span<const double> P,
   out.axis = axis_profile(grid, P);
   const PeakRule rule{settings.min_height, settings.min_prominence, settings.min_pressure, true};
   out.radial = outermost_peak(out.filtered, rule);
-  out.axial =
-      outermost_peak(out.axis, PeakRule{rule.min_height, rule.min_prominence, rule.min_top, false});
+  // The same rule on the axis, where the position is a grid point.
+  PeakRule axial_rule = rule;
+  axial_rule.interpolate = false;
+  out.axial = outermost_peak(out.axis, axial_rule);
   return out;
 }
 
