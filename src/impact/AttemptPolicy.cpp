@@ -46,9 +46,13 @@ AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
   return {memory.first - 1, 0, memory.failed_probes, true};
 }
 
-AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles) {
+AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles,
+                             bool force_settled) {
   const double now = history.back();
-  if (now < tolerance) return AttemptVerdict::Converged;
+  if (now < tolerance) {
+    const bool out_of_cycles = static_cast<int>(history.size()) >= max_cycles;
+    return force_settled || out_of_cycles ? AttemptVerdict::Converged : AttemptVerdict::Continue;
+  }
   const auto before = history.first(history.size() - 1);
   if (!before.empty() && now > kLostGroundFactor * *std::min_element(before.begin(), before.end()))
     return AttemptVerdict::LostGround;

@@ -84,7 +84,10 @@ inline constexpr int kMaxProbeBackoff = 3;
 
 /// The verdict on an attempt whose residuals after cycles 1, 2, ... are
 /// `history` (the latest last), given the tolerance and solver.max_cycles.
+/// Below the tolerance it has converged if its latest cycle left the force
+/// settled (solver.force_tolerance), else it cycles on up to max_cycles and
+/// has converged there.
 [[nodiscard]] AttemptVerdict judge_attempt(std::span<const double> history, double tolerance,
-                                           int max_cycles);
+                                           int max_cycles, bool force_settled = true);
 
 }  // namespace ehlsim

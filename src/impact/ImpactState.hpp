@@ -19,6 +19,7 @@ struct ImpactState {
   AttemptMemory attempts;     ///< where the next step's attempts begin
   Field P;                    ///< pressure at the last time level (finest grid)
   Field P_before;             ///< pressure at the level before (the extrapolated start)
+  Field P_before2;            ///< ... and at the one before that (the quadratic start)
   Field rhoH;                 ///< rho H at the last time level (the BDF2 history)
   Field rhoH_before;          ///< rho H at the level before
 };

@@ -30,7 +30,7 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// 3: checksum_crc32 over every stored value; the reader checks plausibility.
 /// 4: attempts_first and attempts_streak (impact/AttemptPolicy.hpp).
 /// 5: attempts_failed_probes and attempts_probing (the same).
-constexpr int kFormatVersion = 5;
+constexpr int kFormatVersion = 6;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -80,6 +80,7 @@ template <class State, class Visit>
 void for_each_field(State& s, Visit&& visit) {
   visit("P", "pressure at the last time level", s.P);
   visit("P_before", "pressure at the time level before", s.P_before);
+  visit("P_before2", "pressure at the time level before that", s.P_before2);
   visit("rhoH", "rho H at the last time level", s.rhoH);
   visit("rhoH_before", "rho H at the time level before", s.rhoH_before);
 }

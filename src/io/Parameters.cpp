@@ -336,6 +336,11 @@ void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("solver.retry_damping", kDefaults.retry_damping, "", above(0), below(1), "",
                    "the first retry of a step scales both under-relaxation factors by this, "
                    "each further retry (up to 3) by half as much again"));
+  r.push_back(real("solver.force_tolerance", kDefaults.force_tolerance, "", at_least(0), below(1),
+                   "",
+                   "a step has converged when, besides the residual, its last cycle changed the "
+                   "film force by less than this times the largest force so far (0: the "
+                   "residual alone)"));
   r.push_back(choice("solver.symmetry", kSymmetryAuto,
                      {std::string(kSymmetryAuto), std::string(kSymmetryOff)},
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
@@ -1195,6 +1200,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   static_cast<SolverSettings&>(c) = assemble_solver(in);
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
+  c.force_tolerance = in.real("solver.force_tolerance");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   check_undeformed_gap(in, c);
   check_step_count(in, c);
@@ -1345,6 +1351,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"] = solver_settings_json(c);
   j["solver"]["correction_safeguard"] = c.correction_safeguard;
   j["solver"]["retry_damping"] = c.retry_damping;
+  j["solver"]["force_tolerance"] = c.force_tolerance;
   j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
