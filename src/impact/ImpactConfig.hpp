@@ -91,9 +91,9 @@ struct ImpactConfig : SolverSettings {
   /// changed the film force by less than this times the largest force so far
   /// (docs/model.md, section 8); 0: the residual measure alone.  The measure
   /// hardly sees a smooth error: a first step whose force was 7 % off passed
-  /// it on 257^2.  1e-4: the rebound speed and the maximum force of 129^2 to
-  /// 513^2 within 2e-5 of runs converged to 1e-8, against 1e-4 (257^2) and
-  /// 4e-4 (129^2) with the measure alone (docs/performance.md).
+  /// it on 257^2.  1e-4: the rebound speed and the maximum force of 129^2 and
+  /// 257^2 within 1.2e-5 of runs converged to 1e-8, against 1.2e-4 and 4.1e-4
+  /// (129^2) with the measure alone (docs/performance.md).
   double force_tolerance = 1e-4;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
