@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <stdexcept>
+#include <string>
 
 namespace ehlsim {
 
@@ -31,16 +32,18 @@ double bounded(double extrapolated, const Bounds& b, double omega) {
   return std::max(0.0, std::clamp(extrapolated, b.lowest - widening, b.highest + widening));
 }
 
-void check_grids(const Field& last, std::initializer_list<const Field*> others) {
+/// Throws std::invalid_argument naming `function` unless every field is on the grid of `last`.
+void check_grids(const char* function, const Field& last,
+                 std::initializer_list<const Field*> others) {
   for (const Field* f : others)
     if (f->n() != last.n())
-      throw std::invalid_argument("bounded_extrapolation: the fields are on different grids");
+      throw std::invalid_argument(std::string(function) + ": the fields are on different grids");
 }
 
 }  // namespace
 
 void bounded_extrapolation(const Field& last, const Field& before, double omega, Field& out) {
-  check_grids(last, {&before, &out});
+  check_grids("bounded_extrapolation", last, {&before, &out});
   const int n = last.n();
   const bool threaded = worth_threads(last.size());
 #pragma omp parallel for schedule(static) if (threaded)
@@ -54,7 +57,7 @@ void bounded_extrapolation(const Field& last, const Field& before, double omega,
 
 void bounded_quadratic_extrapolation(const Field& last, const Field& before, const Field& before2,
                                      Field& out) {
-  check_grids(last, {&before, &before2, &out});
+  check_grids("bounded_quadratic_extrapolation", last, {&before, &before2, &out});
   const int n = last.n();
   const bool threaded = worth_threads(last.size());
 #pragma omp parallel for schedule(static) if (threaded)
