@@ -38,7 +38,7 @@
 #include "impact/ImpactProblem.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
-#include "io/IsolatedRead.hpp"
+#include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/Parameters.hpp"
@@ -263,7 +263,7 @@ nlohmann::json invocation_json(const ImpactOptions& options,
 }
 
 /// Reads the checkpoint of --restart into `checkpoint` (in a child process
-/// first: io/IsolatedRead.hpp).  Returns kExitOk, or the exit code after its
+/// first: io/IsolatedIo.hpp).  Returns kExitOk, or the exit code after its
 /// one line: 2 for a file that cannot be read (damaged, or one the NetCDF/HDF5
 /// library crashes or hangs on), 128 + the signal for a signal meanwhile.
 int read_restart_checkpoint(const ImpactOptions& options, std::optional<Checkpoint>& checkpoint) {

@@ -26,6 +26,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "grid/Grid.hpp"
@@ -36,7 +37,7 @@
 #include "io/FieldReader.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/Interrupt.hpp"
-#include "io/IsolatedRead.hpp"
+#include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
@@ -1342,7 +1343,7 @@ TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
 }
 
 // ---------------------------------------------------------------------------
-// Untrusted files read in a child process first (io/IsolatedRead.hpp)
+// Untrusted files read in a child process first (io/IsolatedIo.hpp)
 // ---------------------------------------------------------------------------
 
 fs::path library_crash(const std::string& name) {
@@ -1513,6 +1514,58 @@ TEST(IsolatedRead, OrdinaryDamageGivesTheReadersOwnMessage) {
     EXPECT_EQ(untrusted_fields_error(path), expected) << path;
   }
   EXPECT_GE(damaged_files, 14);
+}
+
+// ---------------------------------------------------------------------------
+// Files written in a child process (io/IsolatedIo.hpp)
+// ---------------------------------------------------------------------------
+
+TEST(IsolatedWrite, AWriteThatFailsGivesItsOwnMessage) {
+  TempDir dir;
+  const fs::path path = dir / "out.nc.part";
+  EXPECT_NO_THROW(write_in_child(path, "write", [&] { write_file(path, "done"); }));
+  EXPECT_EQ(read_file(path), "done");  // the child's file is the caller's
+  EXPECT_EQ(read_error([&] {
+              write_in_child(path, "write", [] {
+                throw std::runtime_error("cannot write 'out': nc_close: disk on fire");
+              });
+            }),
+            "cannot write 'out': nc_close: disk on fire");
+  EXPECT_EQ(read_error([&] { write_in_child(path, "write", [] { throw 42; }); }),
+            "an exception that is not a std::exception");
+  // A message longer than a pipe's buffer comes back whole.
+  const std::string long_message(200'000, 'x');
+  EXPECT_EQ(read_error([&] {
+              write_in_child(path, "write", [&] { throw std::runtime_error(long_message); });
+            }),
+            long_message);
+}
+
+TEST(IsolatedWrite, ACrashWhileWritingBecomesAnErrorNamingTheFile) {
+  TempDir dir;
+  const fs::path path = dir / "checkpoint.nc.part";
+  EXPECT_EQ(read_error([&] { write_in_child(path, "write checkpoint", [] { std::abort(); }); }),
+            "cannot write checkpoint '" + path.string() +
+                "': the NetCDF/HDF5 library crashed writing it (SIGABRT; HDF5 1.10.8 does when "
+                "the last write of a file fails, e.g. on an I/O error of the disk)");
+}
+
+TEST(IsolatedWrite, ASignalDoesNotStopAWrite) {
+  TempDir dir;
+  const fs::path path = dir / "checkpoint.nc.part";
+  {
+    const InterruptGuard interrupts;
+    // The child signals its parent, as a Ctrl-C would, and then writes: the
+    // checkpoint written after a SIGINT must be complete.
+    write_in_child(path, "write checkpoint", [&] {
+      kill(getppid(), SIGINT);
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      write_file(path, "complete");
+    });
+    EXPECT_EQ(InterruptGuard::received(), SIGINT);
+    EXPECT_EQ(read_file(path), "complete");
+  }
+  const InterruptGuard clear;  // the flag outlives a guard: no later test may see it
 }
 
 // ---------------------------------------------------------------------------
@@ -2062,7 +2115,7 @@ TEST(Interrupt, ASignalSetsTheFlagInsteadOfEndingTheProcess) {
   EXPECT_EQ(exit_code_for_signal(SIGTERM), 143);
   EXPECT_EQ(exit_code_for_signal(SIGHUP), 129);
   EXPECT_EQ(signal_name(SIGHUP), "SIGHUP");
-  EXPECT_EQ(signal_name(SIGSEGV), "SIGSEGV");  // a child's crash (io/IsolatedRead.hpp)
+  EXPECT_EQ(signal_name(SIGSEGV), "SIGSEGV");  // a child's crash (io/IsolatedIo.hpp)
   {
     const InterruptGuard guard;
     const StopOnSignal stop;

@@ -361,7 +361,15 @@ struct InjectedEio {
   std::string file;       ///< a substring of the path of the files that fail
   long long after = 0;    ///< bytes those files take before the writes fail
   bool on_fsync = false;  ///< fsync fails instead of the writes
+  /// Only the writes at this file offset count, one each (`after` of them
+  /// succeed); empty: every byte counts.
+  std::string offset = {};
 };
+
+/// Offset 0 of a NetCDF-4 file: HDF5 writes its superblock there when it
+/// creates or opens a file, when it ends the definitions, and twice when it
+/// closes the file, the second time as its last write.
+const std::string kSuperblock = "0";
 
 /// A 33^2 elastic run of 80 steps (0.1 s) with a snapshot after each: its
 /// timeseries.csv (10 kB) outgrows the 8 kB buffer of std::ofstream, so that
@@ -390,6 +398,7 @@ Result with_injected_eio(const fs::path& run, const std::string& options, const 
                          {"EHLSIM_TEST_EIO_PATH", eio.file},
                          {"EHLSIM_TEST_EIO_AFTER", std::to_string(eio.after)},
                          {"EHLSIM_TEST_EIO_FSYNC", eio.on_fsync ? "1" : "0"},
+                         {"EHLSIM_TEST_EIO_OFFSET", eio.offset},
                          {"ASAN_OPTIONS", asan_options}});
   Result r = result_of(c);
   const std::string pid = ".part-" + std::to_string(c.pid) + "/";
@@ -421,7 +430,7 @@ TEST(Lifecycle, AnIOErrorInFieldsNcEndsWithOneLineNamingIt) {
   const std::string file = "ehlsim: error: cannot write 'WORK/.run.part-PID/fields.nc.part': ";
   // At once: HDF5 cannot create the file (NetCDF says EACCES; errno has the reason).
   expect_eio_case("create", {"fields.nc", 0}, "", file + "nc_create: Input/output error\n");
-  // In the middle: HDF5 holds the snapshots in its chunk cache until nc_close.
+  // In the middle: each snapshot's child writes it when it closes the file.
   expect_eio_case("middle", {"fields.nc", 300'000}, "",
                   file + "nc_close (Input/output error): NetCDF: HDF error\n");
   // Everything written, the sync before the rename fails.
@@ -468,6 +477,43 @@ TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
   EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 20);
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+}
+
+/// HDF5 1.10.8 crashes (SIGSEGV in H5G_rootof, under NetCDF's report of the
+/// objects left open) when the last write of nc_close fails.  ehlsim writes
+/// its NetCDF files in child processes (io/IsolatedIo.hpp): the crash is one
+/// line and exit 1, naming the file.  Under AddressSanitizer the child ends
+/// with its report's exit status 1 instead of the signal.
+TEST(Lifecycle, AFailedLastWriteOfANetcdfFileIsAnErrorNotACrash) {
+  const std::string crashed = "the NetCDF/HDF5 library crashed writing it (";
+  const std::string why =
+      "; HDF5 1.10.8 does when the last write of a file fails, e.g. on an I/O error of the disk)";
+  // `what` "checkpoint " or "", `file` the partial file within the work directory.
+  const auto expect_crash_case = [&](const std::string& tag, const InjectedEio& eio,
+                                     const std::string& options, const std::string& what,
+                                     const std::string& file) {
+    const TempDir work(tag);
+    const fs::path run = work / "run";
+    ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+    const std::vector<std::string> before = contents(run);
+    const Result r = with_injected_eio(run, options, eio);
+    EXPECT_EQ(r.exit_code, 1) << tag;  // not 139
+    const std::string start =
+        "ehlsim: error: cannot write " + what + "'" + (work / file).string() + "': " + crashed;
+    EXPECT_TRUE(r.err == start + "SIGSEGV" + why + "\n" ||
+                r.err == start + "exit status 1" + why + "\n")
+        << tag << ": " << r.err;
+    EXPECT_EQ(contents(run), before) << tag;
+    EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"}) << tag;
+  };
+  // The first checkpoint (step 20): its superblock writes are its creation,
+  // nc_enddef and two at nc_close.
+  expect_crash_case("checkpoint", {"checkpoint.nc", 3, false, kSuperblock},
+                    "--set output.checkpoint_every=20", "checkpoint ", "run.checkpoint.nc.part");
+  // fields.nc: its creation, then the first snapshot (opened, written, closed).
+  const std::string fields = ".run.part-PID/fields.nc.part";
+  expect_crash_case("fields-created", {"fields.nc", 3, false, kSuperblock}, "", "", fields);
+  expect_crash_case("fields-snapshot", {"fields.nc", 6, false, kSuperblock}, "", "", fields);
 }
 
 /// A failed run keeps its last checkpoint (named in the message) and does not
@@ -886,7 +932,7 @@ std::vector<pid_t> children_of(pid_t pid) {
 }
 
 /// Waits until `c` has a child process (its read of an untrusted file, done in
-/// a child first: io/IsolatedRead.hpp) and returns its pid; -1 after kPatience.
+/// a child first: io/IsolatedIo.hpp) and returns its pid; -1 after kPatience.
 pid_t wait_for_reader(const Child& c) {
   const auto until = std::chrono::steady_clock::now() + kPatience;
   while (std::chrono::steady_clock::now() < until && !has_ended(c)) {

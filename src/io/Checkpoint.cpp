@@ -16,7 +16,7 @@
 
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
-#include "io/IsolatedRead.hpp"
+#include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 
@@ -84,42 +84,6 @@ void for_each_field(State& s, Visit&& visit) {
   visit("rhoH", "rho H at the last time level", s.rhoH);
   visit("rhoH_before", "rho H at the time level before", s.rhoH_before);
 }
-
-/// An open NetCDF file, closed on destruction; `action` names what is done
-/// with it in error messages ("read checkpoint", "write checkpoint").  A file
-/// being written gives the system's reason of a failed write (errno, cleared
-/// before each call: check_netcdf_write).
-class NcFile {
- public:
-  enum class Mode { Read, Write };
-  NcFile(std::filesystem::path path, std::string_view action, Mode mode = Mode::Read)
-      : path_(std::move(path)), action_(action), mode_(mode) {
-    errno = 0;
-  }
-  ~NcFile() {
-    if (id >= 0) nc_close(id);
-  }
-  NcFile(const NcFile&) = delete;
-  NcFile& operator=(const NcFile&) = delete;
-  void check(int status, std::string_view what) const {
-    if (mode_ == Mode::Write) {
-      check_netcdf_write(status, action_, path_, what);
-    } else {
-      check_netcdf(status, action_, path_, what);
-    }
-  }
-  void close() {
-    const int status = nc_close(id);
-    id = -1;
-    check(status, "nc_close");
-  }
-  int id = -1;
-
- private:
-  std::filesystem::path path_;
-  std::string_view action_;
-  Mode mode_;
-};
 
 /// Reads the one value of a global attribute (nc_get_att would write as many
 /// values as the file holds into `value`).
@@ -344,57 +308,62 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
   check_fields_plausible(in, s);
 }
 
+/// The NetCDF file of a checkpoint at `path` (write_checkpoint's child process).
+void write_checkpoint_file(const std::filesystem::path& path, const ImpactState& state,
+                           const nlohmann::json& parameters) {
+  NcFile nc(path, "write checkpoint", NcFile::Mode::Write);
+  nc.check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
+  const auto text = [&](const char* name, const std::string& value) {
+    nc.check(nc_put_att_text(nc.id, NC_GLOBAL, name, value.size(), value.c_str()), name);
+  };
+  text("title", kFormatName);
+  nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "format_version", NC_INT, 1, &kFormatVersion),
+           "format_version");
+  text("ehlsim_version", EHLSIM_VERSION);
+  const std::string parameters_text = parameters.dump();
+  text("ehlsim_parameters", parameters_text);
+  for_each_scalar(state, [&](const char* name, double value) {
+    nc.check(nc_put_att_double(nc.id, NC_GLOBAL, name, NC_DOUBLE, 1, &value), name);
+  });
+  for_each_integer(state, [&](const char* name, int value) {
+    nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
+  });
+  for_each_flag(state, [&](const char* name, bool flag) {
+    const int value = flag ? 1 : 0;
+    nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
+  });
+  const std::uint32_t checksum = checkpoint_checksum(state, parameters_text, EHLSIM_VERSION);
+  nc.check(nc_put_att_uint(nc.id, NC_GLOBAL, kChecksumAttribute, NC_UINT, 1, &checksum),
+           kChecksumAttribute);
+
+  const auto n = static_cast<std::size_t>(state.P.n());
+  std::array<int, 2> dims{};
+  nc.check(nc_def_dim(nc.id, "y", n, &dims[0]), "nc_def_dim(y)");
+  nc.check(nc_def_dim(nc.id, "x", n, &dims[1]), "nc_def_dim(x)");
+  std::vector<std::pair<int, const Field*>> variables;
+  for_each_field(state, [&](const char* name, const char* long_name, const Field& f) {
+    if (static_cast<std::size_t>(f.n()) != n)
+      throw std::invalid_argument("write_checkpoint: the fields differ in size");
+    int var = -1;
+    nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 2, dims.data(), &var), name);
+    nc.check(
+        nc_put_att_text(nc.id, var, "long_name", std::string_view(long_name).size(), long_name),
+        name);
+    variables.emplace_back(var, &f);
+  });
+  nc.check(nc_enddef(nc.id), "nc_enddef");
+  for (const auto& [var, f] : variables)
+    nc.check(nc_put_var_double(nc.id, var, f->data()), "nc_put_var");
+  nc.close();
+}
+
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const ImpactState& state,
                       const nlohmann::json& parameters) {
   PartialFile file(path);
-  {
-    NcFile nc(file.part_path(), "write checkpoint", NcFile::Mode::Write);
-    nc.check(nc_create(file.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
-    const auto text = [&](const char* name, const std::string& value) {
-      nc.check(nc_put_att_text(nc.id, NC_GLOBAL, name, value.size(), value.c_str()), name);
-    };
-    text("title", kFormatName);
-    nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "format_version", NC_INT, 1, &kFormatVersion),
-             "format_version");
-    text("ehlsim_version", EHLSIM_VERSION);
-    const std::string parameters_text = parameters.dump();
-    text("ehlsim_parameters", parameters_text);
-    for_each_scalar(state, [&](const char* name, double value) {
-      nc.check(nc_put_att_double(nc.id, NC_GLOBAL, name, NC_DOUBLE, 1, &value), name);
-    });
-    for_each_integer(state, [&](const char* name, int value) {
-      nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
-    });
-    for_each_flag(state, [&](const char* name, bool flag) {
-      const int value = flag ? 1 : 0;
-      nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &value), name);
-    });
-    const std::uint32_t checksum = checkpoint_checksum(state, parameters_text, EHLSIM_VERSION);
-    nc.check(nc_put_att_uint(nc.id, NC_GLOBAL, kChecksumAttribute, NC_UINT, 1, &checksum),
-             kChecksumAttribute);
-
-    const auto n = static_cast<std::size_t>(state.P.n());
-    std::array<int, 2> dims{};
-    nc.check(nc_def_dim(nc.id, "y", n, &dims[0]), "nc_def_dim(y)");
-    nc.check(nc_def_dim(nc.id, "x", n, &dims[1]), "nc_def_dim(x)");
-    std::vector<std::pair<int, const Field*>> variables;
-    for_each_field(state, [&](const char* name, const char* long_name, const Field& f) {
-      if (static_cast<std::size_t>(f.n()) != n)
-        throw std::invalid_argument("write_checkpoint: the fields differ in size");
-      int var = -1;
-      nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 2, dims.data(), &var), name);
-      nc.check(
-          nc_put_att_text(nc.id, var, "long_name", std::string_view(long_name).size(), long_name),
-          name);
-      variables.emplace_back(var, &f);
-    });
-    nc.check(nc_enddef(nc.id), "nc_enddef");
-    for (const auto& [var, f] : variables)
-      nc.check(nc_put_var_double(nc.id, var, f->data()), "nc_put_var");
-    nc.close();
-  }
+  write_in_child(file.part_path(), "write checkpoint",
+                 [&] { write_checkpoint_file(file.part_path(), state, parameters); });
   file.commit();
 }
 

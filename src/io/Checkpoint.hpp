@@ -37,7 +37,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 [[nodiscard]] Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 /// read_checkpoint of a file from outside this process (`ehlsim impact
-/// --restart`): read in a child process first (io/IsolatedRead.hpp), so that
+/// --restart`): read in a child process first (io/IsolatedIo.hpp), so that
 /// a file HDF5 crashes or hangs on gives a std::runtime_error naming it too.
 /// Throws PreReadInterrupted after a signal during that read.
 [[nodiscard]] Checkpoint read_untrusted_checkpoint(const std::filesystem::path& path);

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "io/IsolatedRead.hpp"
+#include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/Parameters.hpp"
 

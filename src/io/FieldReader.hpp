@@ -36,7 +36,7 @@ class FieldReader {
 };
 
 /// Reads the whole of `path` as an analysis does (FieldReader, then the P of
-/// every snapshot) in a child process (io/IsolatedRead.hpp): call it before a
+/// every snapshot) in a child process (io/IsolatedIo.hpp): call it before a
 /// FieldReader of a file from outside this process, so that a file HDF5
 /// crashes or hangs on gives a std::runtime_error naming it.  Returns when the
 /// child read it, or failed with an error the FieldReader will give again.

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
 
 namespace ehlsim {
@@ -47,11 +48,6 @@ nlohmann::json flatten_parameters(const nlohmann::json& parameters) {
   return out;
 }
 
-void FieldWriter::check(int status, const char* what) const {
-  // errno, cleared before the writing calls, has the reason of a failed write.
-  check_netcdf_write(status, "write", file_.part_path(), what);
-}
-
 FieldLayout FieldLayout::impact(const Grid2D& grid) {
   FieldLayout layout;
   for (int i = 0; i < grid.n; ++i) layout.x.push_back(grid.x(i));
@@ -60,9 +56,141 @@ FieldLayout FieldLayout::impact(const Grid2D& grid) {
   return layout;
 }
 
-void FieldWriter::put_text(int var, const char* name, const std::string& value) const {
-  check(nc_put_att_text(ncid_, var, name, value.size(), value.c_str()), name);
+namespace {
+
+/// The action of every message: "cannot write '<path>': ...".
+constexpr const char* kAction = "write";
+
+void put_text(const NcFile& nc, int var, const char* name, const std::string& value) {
+  nc.check(nc_put_att_text(nc.id, var, name, value.size(), value.c_str()), name);
 }
+
+/// The dimensions of a fields file.
+struct FieldDimensions {
+  int time = -1;
+  int y = -1;
+  int x = -1;
+};
+
+// CF coordinate variables carry the name of their dimension.  x and y have no
+// `axis` attribute on purpose: ParaView's NetCDF (CF) reader takes axis X and
+// Y for longitude and latitude and, by default, maps the grid onto a sphere.
+// Without it, it reads a uniform grid on the true X, Y.  time's `axis` T is
+// what makes that reader see the snapshots as time steps (without it: none);
+// its unit is "1" because T = t / t_bar is dimensionless ("seconds since ..."
+// would be untrue, and xarray would decode it as dates).
+FieldDimensions define_coordinates(const NcFile& nc, const FieldLayout& layout) {
+  FieldDimensions dims;
+  nc.check(nc_def_dim(nc.id, "time", NC_UNLIMITED, &dims.time), "nc_def_dim(time)");
+  nc.check(nc_def_dim(nc.id, "y", layout.y.size(), &dims.y), "nc_def_dim(y)");
+  nc.check(nc_def_dim(nc.id, "x", layout.x.size(), &dims.x), "nc_def_dim(x)");
+  const auto coordinate = [&](const char* name, int dim, const char* long_name) {
+    int var = -1;
+    nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 1, &dim, &var), name);
+    put_text(nc, var, "long_name", long_name);
+    put_text(nc, var, "units", kDimensionless);
+    return var;
+  };
+  const int time = coordinate("time", dims.time, "dimensionless time T = t / t_bar");
+  put_text(nc, time, "axis", "T");
+  coordinate("y", dims.y, "dimensionless coordinate Y = y / a*");
+  coordinate("x", dims.x, "dimensionless coordinate X = x / a*");
+  return dims;
+}
+
+void define_fields(const NcFile& nc, const FieldLayout& layout, const FieldDimensions& d) {
+  const std::array<int, 3> dims = {d.time, d.y, d.x};
+  const std::array<std::size_t, 3> chunk = {1, layout.y.size(), layout.x.size()};
+  const auto field = [&](const char* name, const char* long_name) {
+    int var = -1;
+    nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 3, dims.data(), &var), "nc_def_var");
+    nc.check(nc_def_var_chunking(nc.id, var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
+    nc.check(nc_def_var_deflate(nc.id, var, kShuffle, kDeflate, kDeflateLevel),
+             "nc_def_var_deflate");
+    put_text(nc, var, "long_name", long_name);
+    put_text(nc, var, "units", kDimensionless);
+    put_text(nc, var, "coordinates", "time y x");
+  };
+  field("P", "dimensionless pressure P = p / ph*");
+  field("H", "dimensionless film thickness H = h R / a*^2");
+}
+
+void put_global_attributes(const NcFile& nc, const FieldLayout& layout,
+                           const nlohmann::json& parameters) {
+  put_text(nc, NC_GLOBAL, "Conventions", kConventions);
+  put_text(nc, NC_GLOBAL, "title", layout.title);
+  put_text(nc, NC_GLOBAL, "source", std::string("ehlsim ") + EHLSIM_VERSION);
+  put_text(nc, NC_GLOBAL, "references", kReferences);
+  put_text(nc, NC_GLOBAL, "ehlsim_version", EHLSIM_VERSION);
+  put_text(nc, NC_GLOBAL, "ehlsim_parameters", parameters.dump());
+  const nlohmann::json flat = flatten_parameters(parameters);
+  for (auto it = flat.begin(); it != flat.end(); ++it) {
+    const char* name = it.key().c_str();
+    const nlohmann::json& v = *it;
+    if (v.is_boolean()) {
+      put_text(nc, NC_GLOBAL, name, v.get<bool>() ? "true" : "false");
+    } else if (v.is_number_integer()) {
+      const int i = v.get<int>();
+      nc.check(nc_put_att_int(nc.id, NC_GLOBAL, name, NC_INT, 1, &i), name);
+    } else if (v.is_number()) {
+      const double d = v.get<double>();
+      nc.check(nc_put_att_double(nc.id, NC_GLOBAL, name, NC_DOUBLE, 1, &d), name);
+    } else if (v.is_string()) {
+      put_text(nc, NC_GLOBAL, name, v.get<std::string>());
+    } else if (v.is_array()) {
+      if (v.empty()) continue;  // e.g. no output.snapshot_times: nothing to record
+      const std::vector<double> values = v.get<std::vector<double>>();
+      nc.check(nc_put_att_double(nc.id, NC_GLOBAL, name, NC_DOUBLE, values.size(), values.data()),
+               name);
+    } else {
+      put_text(nc, NC_GLOBAL, name, "none");  // null: e.g. time.T_end until lift-off
+    }
+  }
+}
+
+/// Creates the file at `path` with its definitions and coordinates, and
+/// closes it (in a child process: FieldWriter's constructor).
+void create_field_file(const std::filesystem::path& path, const FieldLayout& layout,
+                       const nlohmann::json& parameters) {
+  NcFile nc(path, kAction, NcFile::Mode::Write);
+  nc.check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
+  const FieldDimensions dims = define_coordinates(nc, layout);
+  define_fields(nc, layout, dims);
+  put_global_attributes(nc, layout, parameters);
+  nc.check(nc_enddef(nc.id), "nc_enddef");
+  const auto put = [&](const char* name, const std::vector<double>& values) {
+    int var = -1;
+    nc.check(nc_inq_varid(nc.id, name, &var), name);
+    nc.check(nc_put_var_double(nc.id, var, values.data()), "nc_put_var");
+  };
+  put("x", layout.x);
+  put("y", layout.y);
+  nc.close();
+}
+
+/// Opens the file at `path`, writes snapshot `index` and closes it (in a
+/// child process: FieldWriter::append).
+void append_snapshot(const std::filesystem::path& path, const FieldLayout& layout,
+                     std::size_t index, double T, std::span<const double> P,
+                     std::span<const double> H) {
+  NcFile nc(path, kAction, NcFile::Mode::Write);
+  nc.check(nc_open(path.c_str(), NC_WRITE, &nc.id), "nc_open");
+  const auto variable = [&](const char* name) {
+    int var = -1;
+    nc.check(nc_inq_varid(nc.id, name, &var), name);
+    return var;
+  };
+  nc.check(nc_put_var1_double(nc.id, variable("time"), &index, &T), "nc_put_var1(time)");
+  const std::array<std::size_t, 3> start = {index, 0, 0};
+  const std::array<std::size_t, 3> count = {1, layout.y.size(), layout.x.size()};
+  nc.check(nc_put_vara_double(nc.id, variable("P"), start.data(), count.data(), P.data()),
+           "nc_put_vara(P)");
+  nc.check(nc_put_vara_double(nc.id, variable("H"), start.data(), count.data(), H.data()),
+           "nc_put_vara(H)");
+  nc.close();
+}
+
+}  // namespace
 
 FieldWriter::FieldWriter(const std::filesystem::path& path, const Grid2D& grid,
                          const nlohmann::json& parameters)
@@ -76,124 +204,26 @@ FieldWriter::FieldWriter(const std::filesystem::path& path, FieldLayout layout,
     throw std::invalid_argument(
         fmt::format("FieldWriter: a grid of {} x {} points", layout_.x.size(), layout_.y.size()));
   }
-  errno = 0;
-  check(nc_create(file_.part_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &ncid_), "nc_create");
-  try {
-    define_coordinates();
-    define_fields();
-    put_global_attributes(parameters);
-    check(nc_enddef(ncid_), "nc_enddef");
-    write_coordinates();
-  } catch (...) {
-    nc_close(ncid_);
-    ncid_ = -1;
-    throw;
-  }
+  write_in_child(file_.part_path(), kAction,
+                 [&] { create_field_file(file_.part_path(), layout_, parameters); });
 }
 
-// CF coordinate variables carry the name of their dimension.  x and y have no
-// `axis` attribute on purpose: ParaView's NetCDF (CF) reader takes axis X and
-// Y for longitude and latitude and, by default, maps the grid onto a sphere.
-// Without it, it reads a uniform grid on the true X, Y.  time's `axis` T is
-// what makes that reader see the snapshots as time steps (without it: none);
-// its unit is "1" because T = t / t_bar is dimensionless ("seconds since ..."
-// would be untrue, and xarray would decode it as dates).
-void FieldWriter::define_coordinates() {
-  check(nc_def_dim(ncid_, "time", NC_UNLIMITED, &dim_time_), "nc_def_dim(time)");
-  check(nc_def_dim(ncid_, "y", layout_.y.size(), &dim_y_), "nc_def_dim(y)");
-  check(nc_def_dim(ncid_, "x", layout_.x.size(), &dim_x_), "nc_def_dim(x)");
-  const auto coordinate = [&](const char* name, int dim, const char* long_name, int* var) {
-    check(nc_def_var(ncid_, name, NC_DOUBLE, 1, &dim, var), name);
-    put_text(*var, "long_name", long_name);
-    put_text(*var, "units", kDimensionless);
-  };
-  coordinate("time", dim_time_, "dimensionless time T = t / t_bar", &var_time_);
-  put_text(var_time_, "axis", "T");
-  coordinate("y", dim_y_, "dimensionless coordinate Y = y / a*", &var_y_);
-  coordinate("x", dim_x_, "dimensionless coordinate X = x / a*", &var_x_);
-}
-
-void FieldWriter::define_fields() {
-  const std::array<int, 3> dims = {dim_time_, dim_y_, dim_x_};
-  const std::array<std::size_t, 3> chunk = {1, layout_.y.size(), layout_.x.size()};
-  const auto field = [&](const char* name, const char* long_name, int* var) {
-    check(nc_def_var(ncid_, name, NC_DOUBLE, 3, dims.data(), var), "nc_def_var");
-    check(nc_def_var_chunking(ncid_, *var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
-    check(nc_def_var_deflate(ncid_, *var, kShuffle, kDeflate, kDeflateLevel), "nc_def_var_deflate");
-    put_text(*var, "long_name", long_name);
-    put_text(*var, "units", kDimensionless);
-    put_text(*var, "coordinates", "time y x");
-  };
-  field("P", "dimensionless pressure P = p / ph*", &var_P_);
-  field("H", "dimensionless film thickness H = h R / a*^2", &var_H_);
-}
-
-void FieldWriter::put_global_attributes(const nlohmann::json& parameters) {
-  put_text(NC_GLOBAL, "Conventions", kConventions);
-  put_text(NC_GLOBAL, "title", layout_.title);
-  put_text(NC_GLOBAL, "source", std::string("ehlsim ") + EHLSIM_VERSION);
-  put_text(NC_GLOBAL, "references", kReferences);
-  put_text(NC_GLOBAL, "ehlsim_version", EHLSIM_VERSION);
-  put_text(NC_GLOBAL, "ehlsim_parameters", parameters.dump());
-  const nlohmann::json flat = flatten_parameters(parameters);
-  for (auto it = flat.begin(); it != flat.end(); ++it) {
-    const std::string& name = it.key();
-    const nlohmann::json& v = *it;
-    if (v.is_boolean()) {
-      put_text(NC_GLOBAL, name.c_str(), v.get<bool>() ? "true" : "false");
-    } else if (v.is_number_integer()) {
-      const int i = v.get<int>();
-      check(nc_put_att_int(ncid_, NC_GLOBAL, name.c_str(), NC_INT, 1, &i), name.c_str());
-    } else if (v.is_number()) {
-      const double d = v.get<double>();
-      check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, 1, &d), name.c_str());
-    } else if (v.is_string()) {
-      put_text(NC_GLOBAL, name.c_str(), v.get<std::string>());
-    } else if (v.is_array()) {
-      if (v.empty()) continue;  // e.g. no output.snapshot_times: nothing to record
-      const std::vector<double> values = v.get<std::vector<double>>();
-      check(nc_put_att_double(ncid_, NC_GLOBAL, name.c_str(), NC_DOUBLE, values.size(),
-                              values.data()),
-            name.c_str());
-    } else {
-      put_text(NC_GLOBAL, name.c_str(), "none");  // null: e.g. time.T_end until lift-off
-    }
-  }
-}
-
-void FieldWriter::write_coordinates() {
-  check(nc_put_var_double(ncid_, var_x_, layout_.x.data()), "nc_put_var(x)");
-  check(nc_put_var_double(ncid_, var_y_, layout_.y.data()), "nc_put_var(y)");
-}
-
-FieldWriter::~FieldWriter() {
-  if (ncid_ >= 0) nc_close(ncid_);  // then file_ removes the partial file
-}
+FieldWriter::~FieldWriter() = default;  // file_ removes the partial file unless committed
 
 void FieldWriter::append(double T, std::span<const double> P, std::span<const double> H) {
-  if (ncid_ < 0) throw std::logic_error("FieldWriter::append after commit");
+  if (file_.committed()) throw std::logic_error("FieldWriter::append after commit");
   if (P.size() != layout_.points() || H.size() != layout_.points()) {
     throw std::invalid_argument(
         fmt::format("FieldWriter: fields of {} and {} points on a grid of {} x {}", P.size(),
                     H.size(), layout_.x.size(), layout_.y.size()));
   }
-  const std::size_t index = snapshots_;
-  errno = 0;
-  check(nc_put_var1_double(ncid_, var_time_, &index, &T), "nc_put_var1(time)");
-  const std::array<std::size_t, 3> start = {index, 0, 0};
-  const std::array<std::size_t, 3> count = {1, layout_.y.size(), layout_.x.size()};
-  check(nc_put_vara_double(ncid_, var_P_, start.data(), count.data(), P.data()), "nc_put_vara(P)");
-  check(nc_put_vara_double(ncid_, var_H_, start.data(), count.data(), H.data()), "nc_put_vara(H)");
+  write_in_child(file_.part_path(), kAction,
+                 [&] { append_snapshot(file_.part_path(), layout_, snapshots_, T, P, H); });
   ++snapshots_;
 }
 
 void FieldWriter::commit() {
-  if (ncid_ < 0) return;
-  errno = 0;
-  const int status = nc_close(ncid_);
-  ncid_ = -1;
-  check(status, "nc_close");
-  file_.commit();
+  if (!file_.committed()) file_.commit();
 }
 
 }  // namespace ehlsim

@@ -9,6 +9,11 @@
 // (deflate level 1 with shuffle).  Global attributes: Conventions, title,
 // source, ehlsim_version, every effective parameter as "<section>_<name>" and
 // the whole set as JSON text in "ehlsim_parameters".
+//
+// Every NetCDF call runs in a child process (io/IsolatedIo.hpp: HDF5 1.10.8
+// crashes when the last write of a file fails): the file is created and
+// defined in one, and each snapshot is appended in another that opens the
+// file, writes and closes it.  The parent holds no NetCDF handle.
 #include <cstddef>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -38,7 +43,7 @@ class FieldWriter {
  public:
   /// Creates "<path>.part" and defines the file.  `parameters` is the echo of
   /// the effective parameters (effective_parameters_json).  Throws
-  /// std::runtime_error with the NetCDF message.
+  /// std::runtime_error with the NetCDF message (or the child's crash).
   FieldWriter(const std::filesystem::path& path, FieldLayout layout,
               const nlohmann::json& parameters);
   /// The impact's file on `grid` (FieldLayout::impact).
@@ -52,30 +57,14 @@ class FieldWriter {
   /// layout, row-major (value (i, j) at j * x.size() + i, i along X).
   void append(double T, std::span<const double> P, std::span<const double> H);
   void append(double T, const Field& P, const Field& H) { append(T, P.span(), H.span()); }
-  /// Closes the file and renames it to its final name.
+  /// Syncs the file to disk and renames it to its final name.
   void commit();
   [[nodiscard]] std::size_t snapshots() const { return snapshots_; }
   [[nodiscard]] const std::filesystem::path& path() const { return file_.final_path(); }
 
  private:
-  void check(int status, const char* what) const;
-  void put_text(int var, const char* name, const std::string& value) const;
-  void define_coordinates();
-  void define_fields();
-  void put_global_attributes(const nlohmann::json& parameters);
-  void write_coordinates();
-
   PartialFile file_;
   FieldLayout layout_;
-  int ncid_ = -1;
-  int dim_time_ = -1;
-  int dim_y_ = -1;
-  int dim_x_ = -1;
-  int var_time_ = -1;
-  int var_y_ = -1;
-  int var_x_ = -1;
-  int var_P_ = -1;
-  int var_H_ = -1;
   std::size_t snapshots_ = 0;
 };
 

@@ -99,4 +99,27 @@ void require_single_value_attribute(int ncid, const char* name, std::string_view
   }
 }
 
+NcFile::NcFile(std::filesystem::path path, std::string_view action, Mode mode)
+    : path_(std::move(path)), action_(action), mode_(mode) {
+  errno = 0;
+}
+
+NcFile::~NcFile() {
+  if (id >= 0) nc_close(id);
+}
+
+void NcFile::check(int status, std::string_view what) const {
+  if (mode_ == Mode::Write) {
+    check_netcdf_write(status, action_, path_, what);
+  } else {
+    check_netcdf(status, action_, path_, what);
+  }
+}
+
+void NcFile::close() {
+  const int status = nc_close(id);
+  id = -1;
+  check(status, "nc_close");
+}
+
 }  // namespace ehlsim

@@ -1,6 +1,6 @@
 #pragma once
 // The one error rule of the NetCDF files ehlsim reads and writes (fields.nc,
-// checkpoint.nc).
+// checkpoint.nc), and an open file that applies it.
 #include <cstddef>
 #include <filesystem>
 #include <initializer_list>
@@ -44,5 +44,28 @@ void require_variable_dimensions(int ncid, int var, std::initializer_list<int> d
 /// one value: nc_get_att writes all of them into the caller's one variable.
 void require_single_value_attribute(int ncid, const char* name, std::string_view action,
                                     const std::filesystem::path& path);
+
+/// An open NetCDF file, closed on destruction; `action` names what is done
+/// with it in error messages ("read checkpoint", "write").  A file
+/// being written gives the system's reason of a failed write (errno, cleared
+/// before each call: check_netcdf_write).
+class NcFile {
+ public:
+  enum class Mode { Read, Write };
+  NcFile(std::filesystem::path path, std::string_view action, Mode mode = Mode::Read);
+  ~NcFile();
+  NcFile(const NcFile&) = delete;
+  NcFile& operator=(const NcFile&) = delete;
+  /// check_netcdf, or check_netcdf_write for a file being written.
+  void check(int status, std::string_view what) const;
+  /// Closes the file; throws as check does when nc_close fails.
+  void close();
+  int id = -1;
+
+ private:
+  std::filesystem::path path_;
+  std::string_view action_;
+  Mode mode_;
+};
 
 }  // namespace ehlsim

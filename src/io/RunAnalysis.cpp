@@ -11,7 +11,7 @@
 #include "analysis/SpikeAnalysis.hpp"
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
-#include "io/IsolatedRead.hpp"
+#include "io/IsolatedIo.hpp"
 #include "io/Parameters.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"

@@ -28,7 +28,7 @@ inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
 /// complete run in it, an unreadable fields.nc or run.json, a key outside
 /// [spike], a bad value, a busy `out_dir`), std::runtime_error (the output
 /// cannot be written), RunInterrupted (a signal during the analysis, or while
-/// fields.nc is read in a child process first: io/IsolatedRead.hpp) or
+/// fields.nc is read in a child process first: io/IsolatedIo.hpp) or
 /// PublishInterrupted (a signal before the swap); then `out_dir` is as it was.
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
                                         const std::filesystem::path& out_dir,

@@ -10,7 +10,15 @@
 //   EHLSIM_TEST_EIO_AFTER  bytes the matching files may take in all before
 //                          the writes fail (default 0: the first one fails), so
 //                          that a file can fail in the middle.  A call that
-//                          would go beyond fails whole, writing nothing.
+//                          would go beyond fails whole, writing nothing.  The
+//                          count is shared with the child processes ehlsim
+//                          writes its NetCDF files in (io/IsolatedIo.hpp).
+//   EHLSIM_TEST_EIO_OFFSET a file offset: only the writes that start there
+//                          count, one each, and EHLSIM_TEST_EIO_AFTER is the
+//                          number of them that succeed.  Offset 0 is HDF5's
+//                          superblock, which it writes when it creates a file,
+//                          ends its definitions, and twice when it closes it:
+//                          the last write of every file, whatever its size.
 //   EHLSIM_TEST_EIO_FSYNC  "1": fsync and fdatasync of the matching files fail
 //                          instead (the writes succeed), as when the kernel's
 //                          writeback of the page cache found the disk failing.
@@ -23,6 +31,7 @@
 // ehlsim writes no file with it.  Each call is passed on to the next
 // definition (dlsym(RTLD_NEXT)): libc's, or the sanitizer runtime's.
 #include <dlfcn.h>
+#include <sys/mman.h>
 #include <sys/types.h>
 #include <sys/uio.h>
 #include <unistd.h>
@@ -32,10 +41,20 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <new>
 
 namespace {
 
-std::atomic<long long> written{0};  // bytes the matching files have taken
+/// Bytes the matching files have taken, in a page shared with the children
+/// forked later (mapped when the library is loaded, before any fork).
+std::atomic<long long>& shared_count() {
+  void* page = mmap(nullptr, sizeof(std::atomic<long long>), PROT_READ | PROT_WRITE,
+                    MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (page == MAP_FAILED) std::abort();
+  return *new (page) std::atomic<long long>{0};
+}
+
+std::atomic<long long>& written = shared_count();
 
 template <class Function>
 Function* next(const char* name) {
@@ -60,16 +79,34 @@ bool fsync_fails() {
   return flag != nullptr && std::strcmp(flag, "1") == 0;
 }
 
-/// Whether a write of `bytes` into `fd` fails (EIO set); counts it if not.
-bool fails(int fd, std::size_t bytes) {
+/// A write(2) or writev(2): it starts where the file's position is.
+constexpr off64_t kAtPosition = -1;
+
+/// What a write of `bytes` at `offset` takes of the budget: its bytes, or with
+/// EHLSIM_TEST_EIO_OFFSET one write if it starts there and nothing otherwise.
+long long cost(int fd, std::size_t bytes, off64_t offset) {
+  const char* at = std::getenv("EHLSIM_TEST_EIO_OFFSET");
+  if (at == nullptr || *at == '\0') return static_cast<long long>(bytes);
+  if (offset == kAtPosition) {
+    const int saved = errno;
+    offset = lseek64(fd, 0, SEEK_CUR);
+    errno = saved;
+  }
+  return offset == std::atoll(at) ? 1 : 0;
+}
+
+/// Whether a write of `bytes` into `fd` at `offset` fails (EIO set); counts it
+/// if not.
+bool fails(int fd, std::size_t bytes, off64_t offset) {
   if (fsync_fails() || !matches(fd)) return false;
   const char* after = std::getenv("EHLSIM_TEST_EIO_AFTER");
   const long long budget = after == nullptr ? 0 : std::atoll(after);
-  if (written.load() + static_cast<long long>(bytes) > budget) {
+  const long long taken = cost(fd, bytes, offset);
+  if (taken > 0 && written.load() + taken > budget) {
     errno = EIO;
     return true;
   }
-  written += static_cast<long long>(bytes);
+  written += taken;
   return false;
 }
 
@@ -94,27 +131,27 @@ extern "C" {
 
 ssize_t write(int fd, const void* buffer, std::size_t count) {
   static auto* real = next<ssize_t(int, const void*, std::size_t)>("write");
-  return fails(fd, count) ? -1 : real(fd, buffer, count);
+  return fails(fd, count, kAtPosition) ? -1 : real(fd, buffer, count);
 }
 
 ssize_t pwrite(int fd, const void* buffer, std::size_t count, off_t offset) {
   static auto* real = next<ssize_t(int, const void*, std::size_t, off_t)>("pwrite");
-  return fails(fd, count) ? -1 : real(fd, buffer, count, offset);
+  return fails(fd, count, offset) ? -1 : real(fd, buffer, count, offset);
 }
 
 ssize_t pwrite64(int fd, const void* buffer, std::size_t count, off64_t offset) {
   static auto* real = next<ssize_t(int, const void*, std::size_t, off64_t)>("pwrite64");
-  return fails(fd, count) ? -1 : real(fd, buffer, count, offset);
+  return fails(fd, count, offset) ? -1 : real(fd, buffer, count, offset);
 }
 
 ssize_t writev(int fd, const iovec* iov, int count) {
   static auto* real = next<ssize_t(int, const iovec*, int)>("writev");
-  return fails(fd, total(iov, count)) ? -1 : real(fd, iov, count);
+  return fails(fd, total(iov, count), kAtPosition) ? -1 : real(fd, iov, count);
 }
 
 ssize_t pwritev(int fd, const iovec* iov, int count, off_t offset) {
   static auto* real = next<ssize_t(int, const iovec*, int, off_t)>("pwritev");
-  return fails(fd, total(iov, count)) ? -1 : real(fd, iov, count, offset);
+  return fails(fd, total(iov, count), offset) ? -1 : real(fd, iov, count, offset);
 }
 
 int fsync(int fd) {
