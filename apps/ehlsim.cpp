@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -445,6 +446,11 @@ int run_reporting_errors(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // ehlsim waits for its children (the cases of a study, the figure script,
+  // the NetCDF children of io/IsolatedIo.hpp).  SIGCHLD ignored, as a
+  // launcher may pass it on through exec, would have the kernel reap them
+  // unseen: waitpid fails with ECHILD and their exit statuses are lost.
+  std::signal(SIGCHLD, SIG_DFL);
   const int code = run_reporting_errors(argc, argv);
   // HDF5's exit handler crashes (SIGSEGV) on a file whose nc_close failed (a
   // full disk).  After a failure every file is closed or removed: skip the

@@ -1550,6 +1550,31 @@ TEST(IsolatedWrite, ACrashWhileWritingBecomesAnErrorNamingTheFile) {
                 "the last write of a file fails, e.g. on an I/O error of the disk)");
 }
 
+TEST(IsolatedWrite, WithSigchldIgnoredTheChildsReportDecides) {
+  // A process started with SIGCHLD ignored (inherited through exec) cannot
+  // wait for its children: the kernel reaps them.  A crash must not pass for
+  // a write that returned.
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  struct sigaction previous {};
+  ASSERT_EQ(sigaction(SIGCHLD, &ignore, &previous), 0);
+  TempDir dir;
+  const fs::path path = dir / "checkpoint.nc.part";
+  const std::string crashed =
+      read_error([&] { write_in_child(path, "write", [] { std::abort(); }); });
+  const std::string threw = read_error(
+      [&] { write_in_child(path, "write", [] { throw std::runtime_error("disk on fire"); }); });
+  const std::string returned = read_error([&] { write_in_child(path, "write", [] {}); });
+  sigaction(SIGCHLD, &previous, nullptr);
+  EXPECT_EQ(crashed, "cannot write '" + path.string() +
+                         "': the NetCDF/HDF5 library crashed writing it (ended without a report; "
+                         "HDF5 1.10.8 does when the last write of a file fails, e.g. on an I/O "
+                         "error of the disk)");
+  EXPECT_EQ(threw, "disk on fire");
+  EXPECT_EQ(returned, "");
+}
+
 TEST(IsolatedWrite, ASignalDoesNotStopAWrite) {
   TempDir dir;
   const fs::path path = dir / "checkpoint.nc.part";

@@ -516,6 +516,35 @@ TEST(Lifecycle, AFailedLastWriteOfANetcdfFileIsAnErrorNotACrash) {
   expect_crash_case("fields-snapshot", {"fields.nc", 6, false, kSuperblock}, "", "", fields);
 }
 
+/// A launcher may start ehlsim with SIGCHLD ignored (inherited through exec):
+/// the kernel would then reap its children unseen, and the study's waitpid
+/// failed with ECHILD (exit 1, a half-made study directory).  ehlsim restores
+/// the default.
+TEST(Lifecycle, SigchldIgnoredByTheLauncherDoesNotLoseTheChildren) {
+  TempDir work;
+  const fs::path out = work / "study";
+  const fs::path err = work / "stderr";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    // The launcher: SIGCHLD ignored, kept through exec.
+    std::signal(SIGCHLD, SIG_IGN);
+    const int null = open("/dev/null", O_RDWR);
+    const int error = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(null, STDIN_FILENO);
+    dup2(null, STDOUT_FILENO);
+    dup2(error, STDERR_FILENO);
+    execl(EHLSIM_BINARY, EHLSIM_BINARY, "study", "--grid", "33", "--no-plots", "--out", out.c_str(),
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << read_file(err);
+  EXPECT_TRUE(fs::exists(out / "study.json"));
+}
+
 /// A failed run keeps its last checkpoint (named in the message) and does not
 /// touch the earlier run's checkpoint.nc.
 TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {

@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -42,10 +43,16 @@ constexpr int kWaitSliceMs = 100;
 /// The child's exit codes.
 constexpr int kChildReturned = 0;
 constexpr int kChildThrew = 2;
+/// The first byte the child sends: its task returned, or threw (the message
+/// follows).  The parent trusts these, not the exit status alone: with SIGCHLD
+/// ignored the kernel reaps the child, and its status is lost.
+constexpr char kReturnedMark = 'R';
+constexpr char kThrewMark = 'T';
 
 /// The parent's view of the child: its pid, and the read end of a pipe whose
-/// write end only the child holds: the child writes the message of what its
-/// task threw into it, and it hangs up when the child ends, however it ends.
+/// write end only the child holds: the child writes how its task ended into
+/// it (kReturnedMark, or kThrewMark and the message), and it hangs up when
+/// the child ends, however it ends.
 struct Child {
   pid_t pid = -1;
   int pipe = -1;
@@ -66,22 +73,27 @@ void send_text(int fd, std::string_view text) {
 /// The child: `task`, with no output and no exit handlers of the parent's.
 [[noreturn]] void run_child(pid_t parent, int pipe, const std::function<void()>& task) {
   // No orphan looping in HDF5 after the parent has gone (even by kill -9).
-  if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != parent) _exit(kChildThrew);
+  if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != parent) {
+    send_text(pipe, fmt::format("{}the child process could not be tied to ehlsim's (prctl: {})",
+                                kThrewMark, std::strerror(errno)));
+    _exit(kChildThrew);
+  }
   const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
   if (null >= 0) {
     dup2(null, STDOUT_FILENO);
     dup2(null, STDERR_FILENO);
   }
-  int code = kChildThrew;
+  std::string report(1, kThrewMark);
   try {
     task();
-    code = kChildReturned;
+    report = std::string(1, kReturnedMark);
   } catch (const std::exception& e) {
-    send_text(pipe, e.what());
+    report += e.what();
   } catch (...) {
-    send_text(pipe, "an exception that is not a std::exception");
+    report += "an exception that is not a std::exception";
   }
-  _exit(code);
+  send_text(pipe, report);
+  _exit(report.front() == kReturnedMark ? kChildReturned : kChildThrew);
 }
 
 Child start_child(const std::filesystem::path& path, std::string_view action,
@@ -139,25 +151,32 @@ Wait wait_for(const Child& child, const ChildWait& how, std::string& text) {
 }
 
 /// The wait status of the child once it has ended; killed first unless it
-/// ended by itself.  0 (returned) when it cannot be waited for: with SIGCHLD
-/// ignored the kernel reaps it, and the caller's own read decides.
-int reap(const Child& child, bool kill_first) {
+/// ended by itself.  None when it cannot be waited for: with SIGCHLD ignored
+/// the kernel reaps it.
+std::optional<int> reap(const Child& child, bool kill_first) {
   if (kill_first) kill(child.pid, SIGKILL);
   int status = 0;
   while (waitpid(child.pid, &status, 0) < 0) {
-    if (errno != EINTR) return 0;  // not ours to wait for any more: nothing to report
+    if (errno != EINTR) return std::nullopt;  // not ours to wait for any more
   }
   return status;
 }
 
-/// How a child that ended by itself ended, from its wait status and what it
-/// sent.
-ChildOutcome outcome_of(int status, std::string text) {
-  if (WIFSIGNALED(status)) return {ChildOutcome::End::Crashed, signal_name(WTERMSIG(status))};
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : kChildThrew;
-  if (code == kChildReturned) return {ChildOutcome::End::Returned, ""};
-  if (code == kChildThrew) return {ChildOutcome::End::Threw, std::move(text)};
-  return {ChildOutcome::End::Crashed, fmt::format("exit status {}", code)};  // a sanitizer's report
+/// How a child that ended by itself ended, from what it sent and its wait
+/// status (none: unknown).  A child that did not say how its task ended
+/// crashed, whatever its status.
+ChildOutcome outcome_of(std::optional<int> status, std::string text) {
+  const auto exited_with = [&](int code) {
+    return !status || (WIFEXITED(*status) && WEXITSTATUS(*status) == code);
+  };
+  if (text.starts_with(kReturnedMark) && exited_with(kChildReturned))
+    return {ChildOutcome::End::Returned, ""};
+  if (text.starts_with(kThrewMark) && exited_with(kChildThrew))
+    return {ChildOutcome::End::Threw, text.substr(1)};
+  if (!status) return {ChildOutcome::End::Crashed, "ended without a report"};
+  if (WIFSIGNALED(*status)) return {ChildOutcome::End::Crashed, signal_name(WTERMSIG(*status))};
+  // A sanitizer's report, or an _exit of the task's own.
+  return {ChildOutcome::End::Crashed, fmt::format("exit status {}", WEXITSTATUS(*status))};
 }
 
 /// Initialises NetCDF (and HDF5, and the network libraries of its remote
@@ -177,7 +196,7 @@ ChildOutcome run_in_child(const std::filesystem::path& path, std::string_view ac
   const Wait end = wait_for(child, how, text);
   const int wait_error = errno;  // poll's, when end is Failed
   close(child.pipe);
-  const int status = reap(child, end != Wait::Ended);
+  const std::optional<int> status = reap(child, end != Wait::Ended);
   switch (end) {
     case Wait::Ended:
       return outcome_of(status, std::move(text));
