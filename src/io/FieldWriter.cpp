@@ -168,11 +168,16 @@ void create_field_file(const std::filesystem::path& path, const FieldLayout& lay
   nc.close();
 }
 
-/// Opens the file at `path`, writes snapshot `index` and closes it (in a
-/// child process: FieldWriter::append).
-void append_snapshot(const std::filesystem::path& path, const FieldLayout& layout,
-                     std::size_t index, double T, std::span<const double> P,
-                     std::span<const double> H) {
+/// One snapshot to write: its time and its fields.
+struct SnapshotView {
+  double T;
+  std::span<const double> P, H;
+};
+
+/// Opens the file at `path`, writes `snapshots` as snapshots `first`,
+/// `first` + 1, ... and closes it (in a child process: FieldWriter).
+void append_snapshots(const std::filesystem::path& path, const FieldLayout& layout,
+                      std::size_t first, const std::vector<SnapshotView>& snapshots) {
   NcFile nc(path, kAction, NcFile::Mode::Write);
   nc.check(nc_open(path.c_str(), NC_WRITE, &nc.id), "nc_open");
   const auto variable = [&](const char* name) {
@@ -180,13 +185,20 @@ void append_snapshot(const std::filesystem::path& path, const FieldLayout& layou
     nc.check(nc_inq_varid(nc.id, name, &var), name);
     return var;
   };
-  nc.check(nc_put_var1_double(nc.id, variable("time"), &index, &T), "nc_put_var1(time)");
-  const std::array<std::size_t, 3> start = {index, 0, 0};
-  const std::array<std::size_t, 3> count = {1, layout.y.size(), layout.x.size()};
-  nc.check(nc_put_vara_double(nc.id, variable("P"), start.data(), count.data(), P.data()),
-           "nc_put_vara(P)");
-  nc.check(nc_put_vara_double(nc.id, variable("H"), start.data(), count.data(), H.data()),
-           "nc_put_vara(H)");
+  const int time = variable("time");
+  const int var_P = variable("P");
+  const int var_H = variable("H");
+  std::size_t index = first;
+  for (const SnapshotView& s : snapshots) {
+    nc.check(nc_put_var1_double(nc.id, time, &index, &s.T), "nc_put_var1(time)");
+    const std::array<std::size_t, 3> start = {index, 0, 0};
+    const std::array<std::size_t, 3> count = {1, layout.y.size(), layout.x.size()};
+    nc.check(nc_put_vara_double(nc.id, var_P, start.data(), count.data(), s.P.data()),
+             "nc_put_vara(P)");
+    nc.check(nc_put_vara_double(nc.id, var_H, start.data(), count.data(), s.H.data()),
+             "nc_put_vara(H)");
+    ++index;
+  }
   nc.close();
 }
 
@@ -217,13 +229,32 @@ void FieldWriter::append(double T, std::span<const double> P, std::span<const do
         fmt::format("FieldWriter: fields of {} and {} points on a grid of {} x {}", P.size(),
                     H.size(), layout_.x.size(), layout_.y.size()));
   }
-  write_in_child(file_.part_path(), kAction,
-                 [&] { append_snapshot(file_.part_path(), layout_, snapshots_, T, P, H); });
+  const std::size_t bytes = 2 * layout_.points() * sizeof(double);
+  if ((held_.size() + 1) * bytes > kFieldBatchBytes) write_held();
+  if (bytes > kFieldBatchBytes) {
+    const std::vector<SnapshotView> one = {{T, P, H}};
+    write_in_child(file_.part_path(), kAction,
+                   [&] { append_snapshots(file_.part_path(), layout_, snapshots_, one); });
+  } else {
+    held_.push_back({T, {P.begin(), P.end()}, {H.begin(), H.end()}});
+  }
   ++snapshots_;
 }
 
+void FieldWriter::write_held() {
+  if (held_.empty()) return;
+  std::vector<SnapshotView> views;
+  for (const HeldSnapshot& s : held_) views.push_back({s.T, s.P, s.H});
+  const std::size_t first = snapshots_ - held_.size();
+  write_in_child(file_.part_path(), kAction,
+                 [&] { append_snapshots(file_.part_path(), layout_, first, views); });
+  held_.clear();
+}
+
 void FieldWriter::commit() {
-  if (!file_.committed()) file_.commit();
+  if (file_.committed()) return;
+  write_held();
+  file_.commit();
 }
 
 }  // namespace ehlsim
