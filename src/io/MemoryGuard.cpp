@@ -8,6 +8,7 @@
 #include <string>
 
 #include "impact/ImpactProblem.hpp"
+#include "io/FieldWriter.hpp"
 #include "io/Parameters.hpp"
 
 namespace ehlsim {
@@ -29,9 +30,10 @@ constexpr double kBytesPerSolverPoint = 184.0;
 constexpr double kBytesPerGridPoint = 88.0;
 /// A checkpoint unfolds four full-grid fields.
 constexpr double kCheckpointBytesPerGridPoint = 4 * sizeof(double);
-/// NetCDF keeps up to 16 MiB of chunks per variable (P and H) and compresses
-/// a chunk (one snapshot, a full-grid field) at a time.
-constexpr double kChunkCacheBytes = 2.0 * 16 * 1024 * 1024;
+/// FieldWriter holds up to kFieldBatchBytes of snapshots until it writes them
+/// (before, NetCDF kept up to 16 MiB of chunks of each of P and H), and a
+/// snapshot is compressed one full-grid field at a time.
+constexpr double kHeldSnapshotBytes = static_cast<double>(kFieldBatchBytes);
 constexpr double kCompressionBytesPerGridPoint = 2 * sizeof(double);
 /// The dry-Hertz table: at most 2^19 levels of T, Delta and V
 /// (analysis/SpikeAnalysis.cpp, kMaxDryContactSteps).
@@ -61,9 +63,9 @@ double solver_points(const SolverSettings& s, int grid_points, bool quadrant) {
   return points;
 }
 
-/// NetCDF's chunk cache and one compressed full-grid field of P and H.
+/// The held snapshots and one compressed full-grid field of P and H.
 double output_bytes(double grid_points) {
-  return kChunkCacheBytes + kCompressionBytesPerGridPoint * grid_points;
+  return kHeldSnapshotBytes + kCompressionBytesPerGridPoint * grid_points;
 }
 
 }  // namespace

@@ -17,7 +17,7 @@ struct MemoryEstimate {
   double process_mb = 0.0;  ///< program, libraries (HDF5, FFTW, OpenMP), small tables
   double solver_mb = 0.0;   ///< multigrid levels: fields, operators, FFT buffers, kernels
   double grid_mb = 0.0;     ///< full-grid arrays: unfolded fields, spike analysis, checkpoint
-  double output_mb = 0.0;   ///< NetCDF chunk cache and compression buffers, dry-Hertz table
+  double output_mb = 0.0;   ///< held snapshots and compression buffers, dry-Hertz table
   [[nodiscard]] double total_mb() const { return process_mb + solver_mb + grid_mb + output_mb; }
 };
 
