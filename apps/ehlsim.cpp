@@ -452,9 +452,11 @@ int main(int argc, char** argv) {
   // unseen: waitpid fails with ECHILD and their exit statuses are lost.
   std::signal(SIGCHLD, SIG_DFL);
   const int code = run_reporting_errors(argc, argv);
-  // HDF5's exit handler crashes (SIGSEGV) on a file whose nc_close failed (a
-  // full disk).  After a failure every file is closed or removed: skip the
-  // exit handlers, flush the streams.
+  // HDF5's exit handler crashed (SIGSEGV) on a file whose nc_close had failed
+  // (a full disk), when ehlsim wrote its NetCDF files itself.  They are written
+  // in child processes now (io/IsolatedIo.hpp), so this process holds no file
+  // being written; the exit handlers stay skipped after a failure as a guard
+  // (every file is closed or removed by then), and the streams are flushed.
   if (code != kExitOk) {
     std::fflush(nullptr);
     std::_Exit(code);
