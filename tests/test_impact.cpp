@@ -1595,7 +1595,8 @@ TEST(PressurePredictor, QuadraticStartIsExactForAPressureQuadraticInTime) {
   const Field next = field_of(n, at(3.0));
   Field quadratic(Grid2D(n, 1.0));
   Field linear(Grid2D(n, 1.0));
-  bounded_quadratic_extrapolation(last, before, before2, quadratic);
+  const std::array<const Field*, 2> earlier{&before, &before2};
+  bounded_series_extrapolation(last, earlier, quadratic);
   bounded_extrapolation(last, before, 1.0, linear);
   for (int j = 0; j < n; ++j) {
     for (int i = 0; i < n; ++i) {
@@ -1617,11 +1618,51 @@ TEST(PressurePredictor, QuadraticStartFallsBackToLinearWhereTheHistoryIsNotResol
   const Field last = ridge_at(n, 16);
   Field quadratic(Grid2D(n, 1.0));
   Field linear(Grid2D(n, 1.0));
-  bounded_quadratic_extrapolation(last, before, before2, quadratic);
+  const std::array<const Field*, 2> earlier{&before, &before2};
+  bounded_series_extrapolation(last, earlier, quadratic);
   bounded_extrapolation(last, before, 1.0, linear);
   for (std::size_t k = 0; k < last.size(); ++k) EXPECT_EQ(quadratic[k], linear[k]) << k;
-  EXPECT_THROW(bounded_quadratic_extrapolation(last, before, Field(Grid2D(9, 1.0)), quadratic),
-               std::invalid_argument);
+  const Field other_grid(Grid2D(9, 1.0));
+  const std::array<const Field*, 2> mixed{&before, &other_grid};
+  EXPECT_THROW(bounded_series_extrapolation(last, mixed, quadratic), std::invalid_argument);
+  const std::array<const Field*, 4> too_many{&before, &before2, &before2, &before2};
+  EXPECT_THROW(bounded_series_extrapolation(last, too_many, quadratic), std::invalid_argument);
+}
+
+// A pressure cubic in time whose differences decrease: the cubic start is
+// exact, the quadratic one off by the third difference (6 x 0.001); where the
+// third difference is not smaller than the second, a point keeps the
+// quadratic start.
+TEST(PressurePredictor, CubicStartIsExactForAPressureCubicInTime) {
+  const int n = 17;
+  const auto at = [](double t) {
+    return [t](int i, int j) {
+      return 2.0 + 0.3 * i + 0.2 * j + 0.1 * t + 0.02 * t * t + 0.001 * t * t * t;
+    };
+  };
+  const Field before3 = field_of(n, at(0.0));
+  const Field before2 = field_of(n, at(1.0));
+  const Field before = field_of(n, at(2.0));
+  const Field last = field_of(n, at(3.0));
+  const Field next = field_of(n, at(4.0));
+  Field cubic(Grid2D(n, 1.0));
+  Field quadratic(Grid2D(n, 1.0));
+  const std::array<const Field*, 3> four_levels{&before, &before2, &before3};
+  const std::array<const Field*, 2> three_levels{&before, &before2};
+  bounded_series_extrapolation(last, four_levels, cubic);
+  bounded_series_extrapolation(last, three_levels, quadratic);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      if (i == n - 1 && j == n - 1) continue;  // the corner, the largest of its neighbourhood
+      EXPECT_NEAR(cubic(i, j), next(i, j), 1e-12) << i << ' ' << j;
+      EXPECT_NEAR(quadratic(i, j), next(i, j) - 0.006, 1e-12) << i << ' ' << j;
+    }
+  }
+  // Level 0 moved so that the third difference (0.1) exceeds the second (0.052).
+  const Field unresolved = field_of(n, [&](int i, int j) { return before3(i, j) - 0.094; });
+  const std::array<const Field*, 3> with_unresolved{&before, &before2, &unresolved};
+  bounded_series_extrapolation(last, with_unresolved, cubic);
+  for (std::size_t k = 0; k < last.size(); ++k) EXPECT_EQ(cubic[k], quadratic[k]) << k;
 }
 
 // Whatever the fields, the start is never negative and never leaves the range

@@ -847,7 +847,7 @@ ImpactState plausible_state(const nlohmann::json& parameters) {
   s.summary.unconverged_steps = 3;
   s.summary.retried_steps = 5;
   double phase = 0.0;
-  for (Field* f : {&s.P, &s.P_before, &s.P_before2, &s.rhoH, &s.rhoH_before}) {
+  for (Field* f : {&s.P, &s.P_before, &s.P_before2, &s.P_before3, &s.rhoH, &s.rhoH_before}) {
     *f = Field(grid);
     phase += 1.0;
     double x = phase;
@@ -897,10 +897,11 @@ TEST(Checkpoint, RoundTripIsExact) {
   EXPECT_EQ(r.attempts.streak, 0);
   EXPECT_EQ(r.attempts.failed_probes, 2);
   EXPECT_TRUE(r.attempts.probing);
-  const std::array<std::pair<const Field*, const Field*>, 5> fields = {
+  const std::array<std::pair<const Field*, const Field*>, 6> fields = {
       {{&r.P, &s.P},
        {&r.P_before, &s.P_before},
        {&r.P_before2, &s.P_before2},
+       {&r.P_before3, &s.P_before3},
        {&r.rhoH, &s.rhoH},
        {&r.rhoH_before, &s.rhoH_before}}};
   for (const auto& [read, written] : fields) {
@@ -972,7 +973,7 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   ehlsim::testing::rewrite_attribute(path, "format_version", 2);
   EXPECT_EQ(checkpoint_error(path),
             prefix +
-                "field 'format_version' is 2; this ehlsim reads version 6 only (checkpoints "
+                "field 'format_version' is 2; this ehlsim reads version 7 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
 }
 
@@ -1190,7 +1191,7 @@ fs::path write_valid_checkpoint(const fs::path& path,
   s.step = 3;
   s.summary.steps = 3;
   s.ball = {1.125, 0.5, -1.0, 0.0};  // T = step x dT (3 x 0.375)
-  for (Field* f : {&s.P, &s.P_before, &s.P_before2}) *f = Field(grid, 0.0);
+  for (Field* f : {&s.P, &s.P_before, &s.P_before2, &s.P_before3}) *f = Field(grid, 0.0);
   for (Field* f : {&s.rhoH, &s.rhoH_before}) *f = Field(grid, 1.0);
   write_checkpoint(path, s, parameters);
   return path;
@@ -1458,7 +1459,7 @@ TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
 
 TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
   // The size of a global-heap object of a DIMENSION_LIST set to 1.7e18: H5HG_read's memcpy.
-  const fs::path checkpoint = library_crash("checkpoint-v6-hdf5-H5HG_read-segv.nc");
+  const fs::path checkpoint = library_crash("checkpoint-v7-hdf5-H5HG_read-segv.nc");
   expect_library_crash(untrusted_checkpoint_error(checkpoint),
                        "cannot read checkpoint '" + checkpoint.string() + "': ");
   const fs::path fields = library_crash("fields-hdf5-H5HG_read-segv.nc");

@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -146,10 +149,10 @@ struct ImpactProblem::Impl {
   };
   /// What a time level starts from: enough to solve its interval again, in halves.
   struct IntervalStart {
-    Field P, P_before, P_before2, rhoH_now, rhoH_old;
+    Field P, P_before, P_before2, P_before3, rhoH_now, rhoH_old;
     BallState ball;
     double force_now = 0.0, force_before = 0.0, delta = 0.0, level_spacing = 0.0,
-           spacing_before = 0.0;
+           spacing_before = 0.0, spacing_before2 = 0.0;
     int levels_done = 0;
   };
   /// Advances `run` by one time step dT (step `step`): as one implicit step,
@@ -180,6 +183,12 @@ struct ImpactProblem::Impl {
   /// Chooses the initial approximation of a step dt = omega x the last one
   /// (the last pressure or its extrapolation in time) and returns its residual.
   double choose_start(double omega);
+  /// How many of P_before, P_before2, P_before3 lie a step apart before the
+  /// last level for a step omega = 1 (the series start), 0 for a start from
+  /// the last level or its linear extrapolation only.
+  [[nodiscard]] std::size_t earlier_levels_a_step_apart(double omega) const;
+  /// P_before3 <- P_before2 <- P_before; P_before is then free for the last level.
+  void shift_earlier_levels();
   /// The attempts of one step from the chosen start.
   StepSolve solve_with_retries(int step, const BallState& ball);
   /// The iterate with the smallest residual of a step's attempts so far.
@@ -223,9 +232,11 @@ struct ImpactProblem::Impl {
   Field rhoH_now, rhoH_old;      ///< rho H at the last two time levels (finest grid)
   Field P_before;                ///< pressure of the time level before the last one
   Field P_before2;               ///< ... and of the one before that
+  Field P_before3;               ///< ... and of the one before that (the cubic start)
   /// Time between the last two time levels: dT, or a part of it within a split step.
   double level_spacing = 0.0;
-  double spacing_before = 0.0;  ///< time between P_before2 and P_before
+  double spacing_before = 0.0;   ///< time between P_before2 and P_before
+  double spacing_before2 = 0.0;  ///< time between P_before3 and P_before2
   /// Time levels solved so far, the halves of split steps included (the first
   /// is solved with BDF1, the first two start from the last pressure).
   int levels_done = 0;
@@ -263,7 +274,8 @@ ImpactProblem::Impl::Impl(const ImpactConfig& config)
       rhoH_now(grid),
       rhoH_old(grid),
       P_before(grid),
-      P_before2(grid) {}
+      P_before2(grid),
+      P_before3(grid) {}
 
 void ImpactProblem::Impl::set_time_coefficients(double b0) { hierarchy.set_time_step(dT, b0); }
 
@@ -302,15 +314,16 @@ double ImpactProblem::Impl::choose_start(double omega) {
     // the extra residual evaluation.)
     Field& P = solver->solution();
     Field other = P;  // the last solution
-    // Three levels a step apart: the quadratic extrapolation where the
-    // history is resolved in time (PressurePredictor.hpp).
-    const bool three_levels = levels_done >= 3 && omega == 1.0 && spacing_before == level_spacing;
-    if (three_levels) {
-      bounded_quadratic_extrapolation(other, P_before, P_before2, P);
+    // Three or four levels a step apart: the series extrapolation, as far as
+    // the history is resolved in time (PressurePredictor.hpp).
+    const std::array<const Field*, kMaxEarlierLevels> earlier{&P_before, &P_before2, &P_before3};
+    const std::size_t series_levels = earlier_levels_a_step_apart(omega);
+    if (series_levels >= 2) {
+      bounded_series_extrapolation(other, std::span(earlier).first(series_levels), P);
     } else {
       bounded_extrapolation(other, P_before, omega, P);
     }
-    std::swap(P_before2, P_before);
+    shift_earlier_levels();
     double residual = solver->residual_norm();
     std::swap(P, other);  // P: the last solution, other: the extrapolation
     const double last_start_residual = solver->residual_norm();
@@ -324,9 +337,22 @@ double ImpactProblem::Impl::choose_start(double omega) {
     return residual;
   }
   // The first two levels start from the last solution (the first: the T = 0 pressure).
-  std::swap(P_before2, P_before);
+  shift_earlier_levels();
   P_before = solver->solution();
   return solver->residual_norm();
+}
+
+std::size_t ImpactProblem::Impl::earlier_levels_a_step_apart(double omega) const {
+  // The series uses the levels from 1 on: level 0 is the quasi-static
+  // pressure at T = 0 (solve_initial_pressure), not a time step's.
+  if (omega != 1.0 || levels_done < 3 || spacing_before != level_spacing) return 0;
+  if (levels_done < 4 || spacing_before2 != level_spacing) return 2;
+  return 3;
+}
+
+void ImpactProblem::Impl::shift_earlier_levels() {
+  std::swap(P_before3, P_before2);
+  std::swap(P_before2, P_before);
 }
 
 ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
@@ -498,7 +524,8 @@ void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
     rhoH_old = start.rhoH_now;
     P_before = start.P;
     P_before2 = start.P_before;
-    spacing_before = dT;
+    P_before3 = start.P_before2;
+    spacing_before = spacing_before2 = dT;
     run.force_before = start.force_now;
     run.ball.T = start.ball.T + dT;
     level_spacing = dT;
@@ -568,6 +595,7 @@ ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
   return {solver->solution(0),
           P_before,
           P_before2,
+          P_before3,
           rhoH_now,
           rhoH_old,
           run.ball,
@@ -576,6 +604,7 @@ ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
           hierarchy.finest().delta(),
           level_spacing,
           spacing_before,
+          spacing_before2,
           levels_done};
 }
 
@@ -583,6 +612,7 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
   solver->solution() = start.P;
   P_before = start.P_before;
   P_before2 = start.P_before2;
+  P_before3 = start.P_before3;
   rhoH_now = start.rhoH_now;
   rhoH_old = start.rhoH_old;
   run.ball = start.ball;
@@ -591,6 +621,7 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
   set_delta(start.delta);
   level_spacing = start.level_spacing;
   spacing_before = start.spacing_before;
+  spacing_before2 = start.spacing_before2;
   levels_done = start.levels_done;
 }
 
@@ -604,6 +635,7 @@ void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, double fo
   const Field& rho = fine.density();
   rhoH_old = rhoH_now;
   for (std::size_t k = 0; k < H.size(); ++k) rhoH_now[k] = rho[k] * H[k];
+  spacing_before2 = spacing_before;
   spacing_before = level_spacing;
   level_spacing = dt;
   ++levels_done;
@@ -669,7 +701,7 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   summary.initial_elastic_energy = elastic_energy_now();
   run.force_now = run.force_before = initial_force;
   level_spacing = dT;
-  spacing_before = 0.0;
+  spacing_before = spacing_before2 = 0.0;
   levels_done = 0;
   attempt_memory = {};
   run.bounds = run_bounds(cfg, dT, summary.initial_elastic_energy);
@@ -689,11 +721,12 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   solver->solution() = fold(s.P, grid);
   P_before = fold(s.P_before, grid);
   P_before2 = fold(s.P_before2, grid);
+  P_before3 = fold(s.P_before3, grid);
   rhoH_now = fold(s.rhoH, grid);
   rhoH_old = fold(s.rhoH_before, grid);
   run.first_step = s.step + 1;
   level_spacing = dT;  // every checkpointed step ends at levels dT apart (advance_step)
-  spacing_before = dT;
+  spacing_before = spacing_before2 = dT;
   levels_done = s.step;
   restart.reset();
 }
@@ -763,10 +796,10 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     if (state_sink && !end && (stop || (state_every > 0 && step % state_every == 0))) {
       // Full-grid fields, whatever grid the solver works on: a checkpoint
       // does not depend on solver.symmetry.
-      state_sink(ImpactState{step, ball, run.force_now, run.force_before, run.had_pressure, summary,
-                             attempt_memory, unfold(solver->solution(), grid),
-                             unfold(P_before, grid), unfold(P_before2, grid),
-                             unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
+      state_sink(ImpactState{
+          step, ball, run.force_now, run.force_before, run.had_pressure, summary, attempt_memory,
+          unfold(solver->solution(), grid), unfold(P_before, grid), unfold(P_before2, grid),
+          unfold(P_before3, grid), unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
     }
     if (stop) throw RunInterrupted(step, ball.T);
     if (end) {
@@ -793,8 +826,8 @@ const ImpactConfig& ImpactProblem::config() const { return impl_->cfg; }
 
 void ImpactProblem::restart_from(ImpactState state) {
   const Grid2D grid = impl_->grid.full();
-  for (const Field* f :
-       {&state.P, &state.P_before, &state.P_before2, &state.rhoH, &state.rhoH_before}) {
+  for (const Field* f : {&state.P, &state.P_before, &state.P_before2, &state.P_before3, &state.rhoH,
+                         &state.rhoH_before}) {
     if (f->n() != grid.n || f->size() != grid.size())
       throw std::invalid_argument(
           fmt::format("restart: the state's fields have {} points per side, the problem's grid {}",

@@ -20,6 +20,7 @@ struct ImpactState {
   Field P;                    ///< pressure at the last time level (finest grid)
   Field P_before;             ///< pressure at the level before (the extrapolated start)
   Field P_before2;            ///< ... and at the one before that (the quadratic start)
+  Field P_before3;            ///< ... and at the one before that (the cubic start)
   Field rhoH;                 ///< rho H at the last time level (the BDF2 history)
   Field rhoH_before;          ///< rho H at the level before
 };

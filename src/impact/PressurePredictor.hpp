@@ -21,20 +21,32 @@
 // change per step is below P's change to its neighbours, and at a smooth
 // maximum or minimum at most omega times the spread of the nine changes.
 //
-// Where three levels dT apart are known, the quadratic extrapolation
-// P_last + d1 + d2 (d1 = P_last - P_before, d2 = d1 - (P_before - P_before2))
-// starts a step O(dT^3) from its solution.  It is taken at a point only where
-// |d2| < |d1|, i.e. where the pressure's history there is resolved in time
-// (the terms of the series decrease); where a peak moves across the mesh the
-// two are alike, and the point keeps the linear extrapolation.  The same
-// bounds apply.  Measured (docs/performance.md, "Quadratic starts and the
-// force criterion"): the contact phase takes 1.2 instead of 2.8 cycles per
-// step on 257^2 and 513^2.  With one cycle per step the quadratic recurrence
-// of the error, e_next = rho (3 e - 3 e_before + e_before2), is neutrally
-// stable at a reduction rho = 1/2 per cycle and unstable above (the linear one
-// is stable for every rho < 1): the approach converges at about that rate, so
-// the quadratic start needs the force criterion of the stopping rule
-// (docs/model.md, section 8), which cycles on until such an error is gone.
+// Where three or four levels dT apart are known, the series extrapolation
+// P_last + d1 + d2 (+ d3), the backward differences d1 = P_last - P_before,
+// d2 = d1 - (P_before - P_before2), d3 = d2 - (the d2 a step earlier), starts
+// a step O(dT^3) (O(dT^4)) from its solution.  A term is taken at a point only
+// while it is smaller than the one before (|d2| < |d1|, |d3| < |d2|), i.e.
+// where the pressure's history there is resolved in time; where a peak moves
+// across the mesh the terms are alike, and the point keeps the linear
+// extrapolation.  The same bounds apply.  Measured (docs/performance.md,
+// "Quadratic starts and the force criterion", "Cubic starts"): the quadratic
+// term took the contact from 2.8 to 1.2 cycles per step on 257^2 and 513^2;
+// the cubic one removes the second cycle that the force criterion asked for
+// in 34 approach steps of 257^2, where the quadratic start's force was off by
+// up to 1.7e-4 of the force (the third difference of the force), and the
+// approach takes 1.33 instead of 1.56 cycles per step there.
+//
+// With one cycle per step the error of a start obeys e_next = rho (2 e -
+// e_1), rho (3 e - 3 e_1 + e_2) or rho (4 e - 6 e_1 + 4 e_2 - e_3) (linear,
+// quadratic, cubic; rho the reduction of a cycle), neutrally stable at rho =
+// 1, 1/2 and 1/5 and unstable above.  The approach's smooth error decays at
+// about 0.16 per cycle (0.6 before the flow-dominated points were relaxed
+// with solver.omega_flow_dominated = 1): a growing start error is what the
+// force criterion of the stopping rule (docs/model.md, section 8) catches, by
+// cycling on until it is gone.
+#include <cstddef>
+#include <span>
+
 #include "grid/Grid.hpp"
 
 namespace ehlsim {
@@ -44,9 +56,13 @@ namespace ehlsim {
 /// others.  Pointwise, so the bits do not depend on the number of threads.
 void bounded_extrapolation(const Field& last, const Field& before, double omega, Field& out);
 
-/// out = max(0, the quadratic extrapolation above), of three levels a step
-/// apart and for one more step (omega = 1), bounded as the linear one.
-void bounded_quadratic_extrapolation(const Field& last, const Field& before, const Field& before2,
-                                     Field& out);
+/// The most levels before the last one that bounded_series_extrapolation uses.
+inline constexpr std::size_t kMaxEarlierLevels = 3;
+
+/// out = max(0, the series extrapolation above) for one more step (omega =
+/// 1), of `last` and the 1 to kMaxEarlierLevels levels before it, a step apart
+/// (earlier[0] the one before `last`), bounded as the linear one.
+void bounded_series_extrapolation(const Field& last, std::span<const Field* const> earlier,
+                                  Field& out);
 
 }  // namespace ehlsim

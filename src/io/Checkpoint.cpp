@@ -30,7 +30,9 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// 3: checksum_crc32 over every stored value; the reader checks plausibility.
 /// 4: attempts_first and attempts_streak (impact/AttemptPolicy.hpp).
 /// 5: attempts_failed_probes and attempts_probing (the same).
-constexpr int kFormatVersion = 6;
+/// 6: P_before2 (the quadratic start, impact/PressurePredictor.hpp).
+/// 7: P_before3 (the cubic start).
+constexpr int kFormatVersion = 7;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -81,6 +83,7 @@ void for_each_field(State& s, Visit&& visit) {
   visit("P", "pressure at the last time level", s.P);
   visit("P_before", "pressure at the time level before", s.P_before);
   visit("P_before2", "pressure at the time level before that", s.P_before2);
+  visit("P_before3", "pressure at the time level before that one", s.P_before3);
   visit("rhoH", "rho H at the last time level", s.rhoH);
   visit("rhoH_before", "rho H at the time level before", s.rhoH_before);
 }

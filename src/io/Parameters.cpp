@@ -854,6 +854,7 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.coarsest_points = in.integer("solver.coarsest_points");
   c.relaxation.switch_ratio = in.real("solver.switch_ratio");
   c.relaxation.omega_gauss_seidel = in.real("solver.omega_gauss_seidel");
+  c.relaxation.omega_flow_dominated = in.real("solver.omega_flow_dominated");
   c.relaxation.omega_jacobi = in.real("solver.omega_jacobi");
   c.relaxation.alternate_directions =
       in.get<std::string>("solver.line_directions") == kLinesAlternating;
@@ -939,6 +940,11 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                    "(3/256) / h)"));
   r.push_back(real("solver.omega_gauss_seidel", relax.omega_gauss_seidel, "", above(0), at_most(1),
                    "", "under-relaxation of the Gauss-Seidel line changes"));
+  r.push_back(real("solver.omega_flow_dominated", relax.omega_flow_dominated, "", above(0),
+                   at_most(1), "",
+                   "under-relaxation of the Gauss-Seidel line changes at points whose flow "
+                   "coefficients exceed 100 times the switch's bound, or that have no elastic "
+                   "term (cavitated, rigid bodies)"));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
   r.push_back(choice("solver.line_directions",
@@ -1298,6 +1304,7 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
           {"deformation", deformation_method_text(c.deformation)},
           {"switch_ratio", c.relaxation.switch_ratio},
           {"omega_gauss_seidel", c.relaxation.omega_gauss_seidel},
+          {"omega_flow_dominated", c.relaxation.omega_flow_dominated},
           {"omega_jacobi", c.relaxation.omega_jacobi},
           {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
           {"deformation_updates",

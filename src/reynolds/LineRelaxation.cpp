@@ -74,6 +74,7 @@ struct LineRelaxation::LineWork {
         cn(count),
         fixed_change(count),
         residual(count),
+        omega(count),
         is_jacobi(count),
         A(count, kHalfBand),
         work(count, kHalfBand) {}
@@ -81,6 +82,7 @@ struct LineRelaxation::LineWork {
   std::vector<double> cw, ce, cs, cn;  ///< face coefficients / h^2: back, forward, across
   std::vector<double> fixed_change;    ///< NaN, or the change a projected point is held to
   std::vector<double> residual;
+  std::vector<double> omega;  ///< under-relaxation of a Gauss-Seidel row's change (damped)
   std::vector<char> is_jacobi;
   BandMatrix A, work;
   /// Elastically coupled Gauss-Seidel points and distributive points of the
@@ -132,7 +134,6 @@ LineRelaxation::ColourResult LineRelaxation::relax_colour(Field& P, const Field&
   const int n = grid.n;
   const int first = grid.first_interior();
   const int m = n - 1 - first;
-  const double w_gs = settings_.omega_gauss_seidel * damping_;
   long gs = 0, jac = 0, coupled = 0, distributive = 0;
   int i0 = n, i1 = -1, j0 = n, j1 = -1;
   // Colour 0 is the odd lines: on a mirrored grid, whose index 0 is the full
@@ -163,7 +164,7 @@ LineRelaxation::ColourResult LineRelaxation::relax_colour(Field& P, const Field&
           i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
           ++jac;
         } else {
-          P(i, j) = std::max(0.0, P(i, j) + w_gs * change);
+          P(i, j) = std::max(0.0, P(i, j) + line_work.omega[r] * change);
           ++gs;
         }
       }
@@ -294,6 +295,9 @@ void LineRelaxation::set_line_row(const Field& P, const Field& f, int i, int j,
   const double elastic_bound =
       elastic && P(i, j) > 0.0 ? settings_.switch_ratio * op_.elastic_diagonal(i, j) : 0.0;
   lw.is_jacobi[r] = elastic && is_pressurized(P, i, j) && flow < elastic_bound;
+  const bool flow_dominated = flow >= kFlowDominatedFactor * elastic_bound;
+  lw.omega[r] =
+      (flow_dominated ? settings_.omega_flow_dominated : settings_.omega_gauss_seidel) * damping_;
   const auto images = static_cast<long>(grid.multiplicity(i) * grid.multiplicity(j));
   if (lw.is_jacobi[r]) {
     lw.distributive += images;
@@ -387,7 +391,6 @@ void LineRelaxation::solve_projected(const Field& P, int line, LineDirection dir
   // solved again, so that its neighbours do not count on a change that the
   // projection would undo; a few passes settle the active set.
   const int first = op_.grid().first_interior();
-  const double omega = settings_.omega_gauss_seidel * damping_;
   const auto begin = static_cast<std::ptrdiff_t>(rows.first);
   const auto end = static_cast<std::ptrdiff_t>(rows.last) + 1;
   std::copy(lw.rhs.begin() + begin, lw.rhs.begin() + end, lw.residual.begin() + begin);
@@ -409,8 +412,8 @@ void LineRelaxation::solve_projected(const Field& P, int line, LineDirection dir
       if (lw.is_jacobi[r] || !std::isnan(lw.fixed_change[r])) continue;
       const auto [i, j] = line_point(direction, line, r + first);
       const double p = P(i, j);
-      if (p + omega * lw.rhs[r] < 0.0) {
-        lw.fixed_change[r] = -p / omega;
+      if (p + lw.omega[r] * lw.rhs[r] < 0.0) {
+        lw.fixed_change[r] = -p / lw.omega[r];
         changed = true;
       }
     }

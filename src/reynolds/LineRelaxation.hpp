@@ -45,7 +45,14 @@ struct RelaxationSettings {
   /// its own mesh); 0: switch_ratio on every grid (switch_ratio_on).
   double switch_reference_mesh = 0.0;
   double omega_gauss_seidel = 0.4;  ///< under-relaxation of Gauss-Seidel changes
-  double omega_jacobi = 0.3;        ///< under-relaxation of distributive changes
+  /// ... at flow-dominated points instead: those whose flow coefficients
+  /// exceed kFlowDominatedFactor times the switch's bound, or with no elastic
+  /// term (P = 0, rigid bodies).  There the elastic coupling that the line
+  /// system leaves out is negligible, and 0.4 only slows a smooth error down
+  /// (0.6 per cycle in the approach, 0.16 with 1; docs/performance.md, "Plain
+  /// Gauss-Seidel where the flow dominates").
+  double omega_flow_dominated = 1.0;
+  double omega_jacobi = 0.3;  ///< under-relaxation of distributive changes
   /// Sweeps alternate between lines along X and lines along Y (X, Y, X, ...
   /// within each relax() call); false: X lines only.  Alternating is what
   /// carries a 513^2 run through the spike phase (docs/model.md).
@@ -60,6 +67,13 @@ struct RelaxationSettings {
   /// section 7).
   bool deformation_each_colour = false;
 };
+
+/// A Gauss-Seidel point whose flow coefficients exceed this times the switch's
+/// bound (switch_ratio times the elastic term) is flow-dominated and relaxed
+/// with omega_flow_dominated.  Measured on the default case (257^2, 513^2): 10
+/// slowed the contact (1.91 cycles per step against 1.30), 100 and 1000 did
+/// not (docs/performance.md).
+inline constexpr double kFlowDominatedFactor = 100.0;
 
 /// The switch ratio a relaxation on mesh size h uses (the settings'
 /// switch_ratio, raised on meshes finer than switch_reference_mesh).
