@@ -180,6 +180,18 @@ TEST(CaseMap, ProbeSmallMOnA33Grid) {
   expect_failed_run(dir, map_run(dir, 33, "--set case.M=1"), "did not converge (residual");
 }
 
+TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {
+  // M = 10, L = 20 on 65^2 met the stopping rule at T = 0 with no force at
+  // all, stalled above the tolerance when asked for less, and then "lifted
+  // off" (V 0.686).  M = 20 has a film at T = 0, with a force of 0.13.
+  TempDir dir;
+  expect_failed_run(dir, map_run(dir, 65, "--set case.M=10 --set case.L=20"),
+                    "did not converge (residual");
+  const Result ok = map_run(dir, 65, "--set case.M=20 --set case.L=20 --set time.T_end=0.05");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NEAR(results_of(dir).at("initial_force").get<double>(), 0.13, 0.01);
+}
+
 TEST(CaseMap, ProbeWavinessDeeperThanTheGapIsBadInput) {
   TempDir dir;
   const Result r = map_run(dir, 33, "--set surface.waviness_amplitude=100");

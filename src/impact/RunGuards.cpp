@@ -133,9 +133,7 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
 }
 
 void check_initial_state(double force, double residual, const ImpactConfig& c) {
-  if (std::isfinite(force) && std::isfinite(residual) &&
-      residual <= kMaxKeptResidualFactor * c.tolerance)
-    return;
+  if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;
   const std::string estimate =
       c.viscosity == ViscosityModel::Barus
           ? fmt::format(

@@ -104,6 +104,8 @@ class LineRelaxation {
   void set_deformation_each_colour(bool each_colour) {
     settings_.deformation_each_colour = each_colour;
   }
+  /// Overrides settings.omega_flow_dominated.
+  void set_omega_flow_dominated(double omega) { settings_.omega_flow_dominated = omega; }
 
  private:
   struct LineWork;

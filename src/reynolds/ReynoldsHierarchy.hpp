@@ -59,6 +59,11 @@ class ReynoldsHierarchy {
   void set_deformation_each_colour(bool each_colour) {
     for (auto& level : levels_) level->smoother().set_deformation_each_colour(each_colour);
   }
+  /// Sets every level's under-relaxation at flow-dominated points
+  /// (reynolds::RelaxationSettings::omega_flow_dominated).
+  void set_omega_flow_dominated(double omega) {
+    for (auto& level : levels_) level->smoother().set_omega_flow_dominated(omega);
+  }
   /// Deformation evaluations of all levels so far, in finest-grid units:
   /// the machine-independent measure of the work done.
   [[nodiscard]] double work_units() const {
