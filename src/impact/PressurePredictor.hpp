@@ -29,7 +29,8 @@
 // where the pressure's history there is resolved in time; where a peak moves
 // across the mesh the terms are alike, and the point keeps the linear
 // extrapolation.  The same bounds apply.  Measured (docs/performance.md,
-// "Quadratic starts and the force criterion", "Cubic starts"): the quadratic
+// "Quadratic starts and the force criterion", "Plain Gauss-Seidel where the
+// flow dominates, and cubic starts"): the quadratic
 // term took the contact from 2.8 to 1.2 cycles per step on 257^2 and 513^2;
 // the cubic one removes the second cycle that the force criterion asked for
 // in 34 approach steps of 257^2, where the quadratic start's force was off by

@@ -942,9 +942,10 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                    "", "under-relaxation of the Gauss-Seidel line changes"));
   r.push_back(real("solver.omega_flow_dominated", relax.omega_flow_dominated, "", above(0),
                    at_most(1), "",
-                   "under-relaxation of the Gauss-Seidel line changes at points whose flow "
-                   "coefficients exceed 100 times the switch's bound, or that have no elastic "
-                   "term (cavitated, rigid bodies)"));
+                   fmt::format("under-relaxation of the Gauss-Seidel line changes at points "
+                               "whose flow coefficients exceed {:g} times the switch's bound, or "
+                               "that have no elastic term (cavitated, rigid bodies)",
+                               reynolds::kFlowDominatedFactor)));
   r.push_back(real("solver.omega_jacobi", relax.omega_jacobi, "", above(0), at_most(1), "",
                    "under-relaxation of the distributive Jacobi line changes"));
   r.push_back(choice("solver.line_directions",

@@ -50,7 +50,7 @@ struct RelaxationSettings {
   /// term (P = 0, rigid bodies).  There the elastic coupling that the line
   /// system leaves out is negligible, and 0.4 only slows a smooth error down
   /// (0.6 per cycle in the approach, 0.16 with 1; docs/performance.md, "Plain
-  /// Gauss-Seidel where the flow dominates").
+  /// Gauss-Seidel where the flow dominates, and cubic starts").
   double omega_flow_dominated = 1.0;
   double omega_jacobi = 0.3;  ///< under-relaxation of distributive changes
   /// Sweeps alternate between lines along X and lines along Y (X, Y, X, ...
