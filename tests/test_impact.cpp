@@ -20,6 +20,7 @@
 #include <iostream>
 #include <limits>
 #include <numbers>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -1614,31 +1615,40 @@ std::vector<Field> levels_in_time(int n, Pressure pressure, int count) {
   return levels;
 }
 
-// A pressure quadratic in time and smooth in space: the quadratic start is
-// exact, the linear one off by the second difference.  (A ramp in space:
-// at a point that is the largest of its neighbourhood, here the corner, the
-// bound of the linear start, the range widened by the first difference, clips
-// the second difference too.)
-TEST(PressurePredictor, QuadraticStartIsExactForAPressureQuadraticInTime) {
+// A pressure of degree d = 2 or 3 in time, smooth in space, whose differences
+// in time decrease: the series start of order d is exact, the one of order
+// d - 1 off by the d-th difference (d! times the leading coefficient).  (A
+// ramp in space: at a point that is the largest of its neighbourhood, here the
+// corner, the bound, the range widened by the first difference, clips the
+// higher differences too.)
+TEST(PressurePredictor, SeriesStartIsExactForAPressurePolynomialInTime) {
   const int n = 17;
-  const std::vector<Field> levels = levels_in_time(
-      n, [](double t, int i, int j) { return 2.0 + 0.3 * i + 0.2 * j + 0.1 * t + 0.02 * t * t; },
-      4);
-  const Field& before2 = levels[0];
-  const Field& before = levels[1];
-  const Field& last = levels[2];
-  const Field& next = levels[3];
-  Field quadratic(Grid2D(n, 1.0));
-  Field linear(Grid2D(n, 1.0));
-  const std::array<const Field*, 2> earlier{&before, &before2};
-  bounded_series_extrapolation(last, earlier, quadratic);
-  bounded_extrapolation(last, before, 1.0, linear);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      if (i == n - 1 && j == n - 1) continue;  // the corner, the largest of its neighbourhood
-      EXPECT_NEAR(quadratic(i, j), next(i, j), 1e-12) << i << ' ' << j;
-      // Off by the second difference, 2 x 0.02.
-      EXPECT_NEAR(linear(i, j), next(i, j) - 0.04, 1e-12) << i << ' ' << j;
+  const std::array<double, 4> coefficient{2.0, 0.1, 0.02, 0.001};  // of t^0 ... t^3
+  const std::array<double, 4> factorial{1.0, 1.0, 2.0, 6.0};
+  for (int degree = 2; degree <= 3; ++degree) {
+    const std::vector<Field> levels = levels_in_time(
+        n,
+        [&](double t, int i, int j) {
+          double p = 0.3 * i + 0.2 * j;
+          for (int k = 0; k <= degree; ++k) p += coefficient[k] * std::pow(t, k);
+          return p;
+        },
+        degree + 2);
+    const Field& last = levels[degree];
+    const Field& next = levels[degree + 1];
+    std::vector<const Field*> earlier;  // the level before `last` first
+    for (int k = degree - 1; k >= 0; --k) earlier.push_back(&levels[k]);
+    Field exact(Grid2D(n, 1.0));
+    Field lower(Grid2D(n, 1.0));
+    bounded_series_extrapolation(last, earlier, exact);
+    bounded_series_extrapolation(last, std::span(earlier).first(degree - 1), lower);
+    const double difference = factorial[degree] * coefficient[degree];
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        if (i == n - 1 && j == n - 1) continue;  // the corner, the largest of its neighbourhood
+        EXPECT_NEAR(exact(i, j), next(i, j), 1e-12) << degree << ' ' << i << ' ' << j;
+        EXPECT_NEAR(lower(i, j), next(i, j) - difference, 1e-12) << degree << ' ' << i << ' ' << j;
+      }
     }
   }
 }
@@ -1664,41 +1674,25 @@ TEST(PressurePredictor, QuadraticStartFallsBackToLinearWhereTheHistoryIsNotResol
   EXPECT_THROW(bounded_series_extrapolation(last, too_many, quadratic), std::invalid_argument);
 }
 
-// A pressure cubic in time whose differences decrease: the cubic start is
-// exact, the quadratic one off by the third difference (6 x 0.001); where the
-// third difference is not smaller than the second, a point keeps the
-// quadratic start.
-TEST(PressurePredictor, CubicStartIsExactForAPressureCubicInTime) {
+// Where the third difference is not smaller than the second, a point keeps
+// the quadratic start.
+TEST(PressurePredictor, CubicStartFallsBackToQuadraticWhereTheThirdDifferenceIsNotSmaller) {
   const int n = 17;
   const std::vector<Field> levels = levels_in_time(
       n,
       [](double t, int i, int j) {
         return 2.0 + 0.3 * i + 0.2 * j + 0.1 * t + 0.02 * t * t + 0.001 * t * t * t;
       },
-      5);
-  const Field& before3 = levels[0];
-  const Field& before2 = levels[1];
-  const Field& before = levels[2];
-  const Field& last = levels[3];
-  const Field& next = levels[4];
+      4);
+  // Level 0 moved so that the third difference (0.1) exceeds the second (0.052).
+  const Field unresolved = field_of(n, [&](int i, int j) { return levels[0](i, j) - 0.094; });
+  const std::array<const Field*, 3> with_unresolved{&levels[2], &levels[1], &unresolved};
+  const std::array<const Field*, 2> three_levels{&levels[2], &levels[1]};
   Field cubic(Grid2D(n, 1.0));
   Field quadratic(Grid2D(n, 1.0));
-  const std::array<const Field*, 3> four_levels{&before, &before2, &before3};
-  const std::array<const Field*, 2> three_levels{&before, &before2};
-  bounded_series_extrapolation(last, four_levels, cubic);
-  bounded_series_extrapolation(last, three_levels, quadratic);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      if (i == n - 1 && j == n - 1) continue;  // the corner, the largest of its neighbourhood
-      EXPECT_NEAR(cubic(i, j), next(i, j), 1e-12) << i << ' ' << j;
-      EXPECT_NEAR(quadratic(i, j), next(i, j) - 0.006, 1e-12) << i << ' ' << j;
-    }
-  }
-  // Level 0 moved so that the third difference (0.1) exceeds the second (0.052).
-  const Field unresolved = field_of(n, [&](int i, int j) { return before3(i, j) - 0.094; });
-  const std::array<const Field*, 3> with_unresolved{&before, &before2, &unresolved};
-  bounded_series_extrapolation(last, with_unresolved, cubic);
-  for (std::size_t k = 0; k < last.size(); ++k) EXPECT_EQ(cubic[k], quadratic[k]) << k;
+  bounded_series_extrapolation(levels[3], with_unresolved, cubic);
+  bounded_series_extrapolation(levels[3], three_levels, quadratic);
+  for (std::size_t k = 0; k < cubic.size(); ++k) EXPECT_EQ(cubic[k], quadratic[k]) << k;
 }
 
 // Whatever the fields, the start is never negative and never leaves the range
