@@ -1148,6 +1148,50 @@ class CycleLog final : public ImpactObserver {
 
 }  // namespace
 
+// In the rebound the spike ring runs inward with the receding contact, 0.6 of a
+// mesh per step; the starts of the fixed frame leave its error, the start in
+// the contracting frame follows it (PressurePredictor.hpp).  65^2 to lift-off:
+// the starts of the rebound and the collapse have half the residual, the steps
+// take fewer cycles, and the run ends as without it.
+TEST(ImpactConvergence, TheContractingStartHalvesTheStartResidualOfTheRebound) {
+  ImpactConfig cfg = moes_config(65);
+  const auto run_logged = [](const ImpactConfig& c, CycleLog& log) {
+    ImpactProblem problem(c);
+    return problem.run(log);
+  };
+  CycleLog with, without;
+  const RunSummary contracting = run_logged(cfg, with);
+  cfg.contracting_start = false;
+  const RunSummary fixed = run_logged(cfg, without);
+  constexpr double kReboundFrom = 2.75;                   // bench_phases.py's phases
+  const auto start_residual = [&](const CycleLog& log) {  // geometric mean over the steps
+    double log_sum = 0.0;
+    int steps = 0;
+    for (const CycleRecord& c : log.cycles) {
+      // (A start of P = 0, in the last steps before lift-off, has no residual.)
+      if (c.T <= kReboundFrom || c.attempt != 0 || c.cycle != 0 || c.residual == 0.0) continue;
+      log_sum += std::log(c.residual);
+      ++steps;
+    }
+    return std::exp(log_sum / steps);
+  };
+  const auto cycles = [&](const CycleLog& log) {
+    int total = 0;
+    for (const StepRecord& r : log.steps) total += r.T > kReboundFrom ? r.cycles : 0;
+    return total;
+  };
+  report("rebound_start_residual_65_contracting", start_residual(with));
+  report("rebound_start_residual_65_fixed", start_residual(without));
+  report("rebound_cycles_65_contracting", cycles(with));
+  report("rebound_cycles_65_fixed", cycles(without));
+  EXPECT_LT(start_residual(with), 0.6 * start_residual(without));
+  EXPECT_LT(cycles(with), cycles(without));
+  ASSERT_TRUE(contracting.lifted_off && fixed.lifted_off);
+  EXPECT_EQ(contracting.T_lift_off, fixed.T_lift_off);
+  EXPECT_NEAR(contracting.rebound_speed, fixed.rebound_speed, 1e-5);
+  EXPECT_NEAR(contracting.max_force, fixed.max_force, 1e-5);
+}
+
 TEST(ImpactCycles, EveryAttemptAndCycleOfEveryIntervalIsReported) {
   // convergence.csv's rows (RunOutput::on_cycle): the case of the halved step
   // above, where attempts fail and an interval is solved in halves.
@@ -1731,5 +1775,117 @@ TEST(PressurePredictor, StaysWithinItsBoundAndNeverNegative) {
   omp_set_num_threads(threads);
   EXPECT_TRUE(std::equal(out.span().begin(), out.span().end(), again.span().begin()));
   EXPECT_THROW(bounded_extrapolation(last, Field(Grid2D(9, 1.0)), omega, again),
+               std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
+// The start in a contracting frame (PressurePredictor.hpp)
+
+namespace {
+
+/// A field on `grid` with the values of value(X, Y) at every point.
+template <class Value>
+Field field_on(const Grid2D& grid, Value&& value) {
+  Field f(grid);
+  for (int j = 0; j < grid.n; ++j)
+    for (int i = 0; i < grid.n; ++i) f(i, j) = value(grid.x(i), grid.y(j));
+  return f;
+}
+
+/// The quadrant of 129^2 on [-1.5, 1.5]^2, and the full grid of the same mesh.
+std::array<Grid2D, 2> quadrant_and_full_grid() { return {Grid2D(65, 1.5, true), Grid2D(129, 1.5)}; }
+
+}  // namespace
+
+// Bilinear interpolation is exact for a field bilinear in X and Y: contracted
+// by c, 1 + 0.3 X - 0.2 Y + 0.1 X Y becomes 1 + 0.3 c X - 0.2 c Y + 0.1 c^2 X Y
+// wherever (c X, c Y) lies on the grid, and zero beyond it and on the grid's
+// outer boundary, where the pressure is held at zero.
+TEST(PressurePredictor, ContractionIsExactForABilinearField) {
+  const auto bilinear = [](double x, double y, double c) {
+    return 1.0 + 0.3 * c * x - 0.2 * c * y + 0.1 * c * c * x * y;
+  };
+  for (const Grid2D& grid : quadrant_and_full_grid()) {
+    const Field field = field_on(grid, [&](double x, double y) { return bilinear(x, y, 1.0); });
+    const double lowest = grid.x(0), highest = grid.x(grid.n - 1);
+    for (const double c : {0.9, 1.0, 1.1}) {
+      Field out(grid);
+      contract_radially(grid, field, c, out);
+      for (int j = 0; j < grid.n; ++j) {
+        for (int i = 0; i < grid.n; ++i) {
+          const double x = grid.x(i), y = grid.y(j);
+          const bool outer =
+              i == grid.n - 1 || j == grid.n - 1 || (!grid.mirrored && (i == 0 || j == 0));
+          const auto on_grid = [&](double s) { return s >= lowest && s < highest; };
+          const double expected =
+              !outer && on_grid(c * x) && on_grid(c * y) ? bilinear(x, y, c) : 0.0;
+          EXPECT_NEAR(out(i, j), expected, 1e-12)
+              << grid.mirrored << ' ' << c << ' ' << i << ' ' << j;
+        }
+      }
+    }
+  }
+}
+
+// A ring that shrinks by c per step as its height grows: the contraction that
+// maps the level before onto the last is found to a small part of its
+// distance from 1, on the quadrant and on the full grid alike.
+TEST(PressurePredictor, RadialContractionFindsTheShrinkOfARing) {
+  const auto ring = [](double R, double R0) {
+    const double w = 0.03;  // 2.6 meshes
+    return std::exp(-((R - R0) / w) * ((R - R0) / w));
+  };
+  for (const Grid2D& grid : quadrant_and_full_grid()) {
+    for (const double c : {0.98, 1.0, 1.015, 1.03}) {
+      const Field last =
+          field_on(grid, [&](double x, double y) { return ring(std::hypot(x, y), 0.6); });
+      const Field before = field_on(  // and 5 % lower: the spike grows as it runs inward
+          grid, [&](double x, double y) { return 0.95 * ring(std::hypot(x, y) / c, 0.6); });
+      EXPECT_NEAR(radial_contraction(grid, last, before), c, 1e-3) << grid.mirrored << ' ' << c;
+    }
+  }
+}
+
+// A pressure bilinear in X / a and Y / a whose size a shrinks by q per step
+// while its height grows linearly in time: each earlier level, contracted by
+// c^(k+1) with c = 1 / q, is the same bilinear field times a height linear in
+// time, which bilinear interpolation and the linear series carry exactly.  So
+// the contracting start is the next level to rounding wherever the levels it
+// contracts lie on the grid; the linear start of the fixed frame is not.  The
+// same bits on one and on two threads.
+TEST(PressurePredictor, ContractingStartIsExactForABilinearFieldThatShrinksAsItGrows) {
+  const Grid2D grid = Grid2D(129, 1.5, true);  // the quadrant of 257^2: large enough for threads
+  const double q = 0.988;                      // 0.6 of a mesh per step at R = 0.6
+  const auto level = [&](double t) {
+    const double a = 0.6 * std::pow(q, t);
+    return field_on(grid, [&](double x, double y) {
+      return (1.0 + 0.03 * t) * (2.0 + 0.3 * x / a + 0.2 * y / a + 0.1 * x * y / (a * a));
+    });
+  };
+  const Field next = level(2.0), last = level(1.0), before = level(0.0);
+  const std::array<const Field*, 1> earlier{&before};
+  Field contracting(grid), fixed(grid);
+  contracting_frame_extrapolation(grid, last, earlier, 1.0 / q, contracting);
+  bounded_series_extrapolation(last, earlier, fixed);
+  const double reach = grid.x(grid.n - 1) * q * q;  // where the level before lies on the grid
+  const auto largest_error = [&](const Field& start) {
+    double largest = 0.0;
+    for (int j = 0; grid.y(j) < reach; ++j)
+      for (int i = 0; grid.x(i) < reach; ++i)
+        largest = std::max(largest, std::abs(start(i, j) - next(i, j)) / next(i, j));
+    return largest;
+  };
+  report("contracting_start_largest_relative_error", largest_error(contracting));
+  report("fixed_frame_start_largest_relative_error", largest_error(fixed));
+  EXPECT_LT(largest_error(contracting), 1e-13);
+  EXPECT_GT(largest_error(fixed), 1e-5);
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(threads == 1 ? 2 : 1);
+  Field again(grid);
+  contracting_frame_extrapolation(grid, last, earlier, 1.0 / q, again);
+  omp_set_num_threads(threads);
+  for (std::size_t k = 0; k < again.size(); ++k) ASSERT_EQ(again[k], contracting[k]) << k;
+  const std::array<const Field*, 4> too_many{&before, &before, &before, &before};
+  EXPECT_THROW(contracting_frame_extrapolation(grid, last, too_many, 1.0 / q, again),
                std::invalid_argument);
 }

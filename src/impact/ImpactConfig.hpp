@@ -35,6 +35,15 @@ struct PhysicalCase {
   double t_bar_s = 0.0;
 };
 
+/// The start in the contracting frame (impact/PressurePredictor.hpp) is
+/// offered when the better of the other two starts of a step leaves a residual
+/// above this many times solver.tolerance: in the rebound and the collapse
+/// (0.04-0.2 at 257^2 and 513^2), not in the contact (1e-4 and below), where
+/// it was the better start in 6 of 57 steps above 10 times the tolerance on
+/// 257^2 and cost a residual evaluation in each (docs/performance.md, "Starts
+/// in a contracting frame").
+inline constexpr double kContractingStartTrigger = 100.0;
+
 /// The multigrid settings (SolverSettings, shared with the other modes) are
 /// its base: cfg.tolerance, cfg.relaxation, ...  Their impact defaults are
 /// SolverSettings' own: max_cycles 20 per attempt of a time step, because the
@@ -95,6 +104,10 @@ struct ImpactConfig : SolverSettings {
   /// 257^2 within 1.2e-5 of runs converged to 1e-8, against 1.2e-4 and 4.1e-4
   /// (129^2) with the measure alone (docs/performance.md).
   double force_tolerance = 1e-4;
+  /// Where the other starts of a step are poor (kContractingStartTrigger),
+  /// also try the one extrapolated in a frame that contracts with the pressure
+  /// (impact/PressurePredictor.hpp).
+  bool contracting_start = true;
   /// Solve on the quadrant X, Y >= 0 when the case is even in X and Y
   /// (solver.symmetry = auto); false: always the full domain.
   bool use_symmetry = true;

@@ -183,6 +183,11 @@ struct ImpactProblem::Impl {
   /// Chooses the initial approximation of a step dt = omega x the last one
   /// (the last pressure or its extrapolation in time) and returns its residual.
   double choose_start(double omega);
+  /// Makes `candidate` the solver's pressure, the step's start, if its
+  /// residual is below `residual`, that of the pressure there now (or equal
+  /// to it, `on_a_tie`); else leaves both as they were.  Returns the
+  /// residual of the start.
+  double offer_start(Field& candidate, double residual, bool on_a_tie);
   /// How many of P_before, P_before2, P_before3 lie a step apart before the
   /// last level for a step omega = 1 (the series start), 0 for a start from
   /// the last level or its linear extrapolation only.
@@ -303,6 +308,9 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_time_step(int step,
 }
 
 double ImpactProblem::Impl::choose_start(double omega) {
+  Field& P = solver->solution();
+  Field last = P;  // the last solution: P_before once the levels have shifted
+  double residual = solver->residual_norm();
   if (levels_done >= 2) {
     // Linear extrapolation in time of the pressure: the initial approximation
     // is then O(dT^2) from the new solution instead of O(dT) where the
@@ -312,34 +320,38 @@ double ImpactProblem::Impl::choose_start(double omega) {
     // is taken.
     // (Measured on 257^2: fewer stalled steps, and the saved retries pay for
     // the extra residual evaluation.)
-    Field& P = solver->solution();
-    Field other = P;  // the last solution
-    // Three or four levels a step apart: the series extrapolation, as far as
-    // the history is resolved in time (PressurePredictor.hpp).
     const std::array<const Field*, kMaxEarlierLevels> earlier{&P_before, &P_before2, &P_before3};
     const std::size_t series_levels = earlier_levels_a_step_apart(omega);
+    const std::span<const Field* const> series = std::span(earlier).first(series_levels);
+    Field candidate(grid);
+    // Three or four levels a step apart: the series extrapolation, as far as
+    // the history is resolved in time (PressurePredictor.hpp).
     if (series_levels >= 2) {
-      bounded_series_extrapolation(other, std::span(earlier).first(series_levels), P);
+      bounded_series_extrapolation(last, series, candidate);
     } else {
-      bounded_extrapolation(other, P_before, omega, P);
+      bounded_extrapolation(last, P_before, omega, candidate);
     }
-    shift_earlier_levels();
-    double residual = solver->residual_norm();
-    std::swap(P, other);  // P: the last solution, other: the extrapolation
-    const double last_start_residual = solver->residual_norm();
-    if (last_start_residual < residual) {
-      residual = last_start_residual;
-      P_before = P;
-    } else {
-      std::swap(P, other);
-      P_before = std::move(other);
+    residual = offer_start(candidate, residual, true);
+    if (cfg.contracting_start && series_levels >= 2 &&
+        residual > kContractingStartTrigger * cfg.tolerance) {
+      const double contraction = radial_contraction(grid, last, P_before);
+      contracting_frame_extrapolation(grid, last, series, contraction, candidate);
+      residual = offer_start(candidate, residual, false);
     }
-    return residual;
   }
   // The first two levels start from the last solution (the first: the T = 0 pressure).
   shift_earlier_levels();
-  P_before = solver->solution();
-  return solver->residual_norm();
+  P_before = std::move(last);
+  return residual;
+}
+
+double ImpactProblem::Impl::offer_start(Field& candidate, double residual, bool on_a_tie) {
+  Field& P = solver->solution();
+  std::swap(P, candidate);
+  const double offered = solver->residual_norm();
+  if (offered < residual || (on_a_tie && offered == residual)) return offered;
+  std::swap(P, candidate);
+  return residual;
 }
 
 std::size_t ImpactProblem::Impl::earlier_levels_a_step_apart(double omega) const {
@@ -738,6 +750,10 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   level_spacing = dT;  // every checkpointed step ends at levels dT apart (advance_step)
   spacing_before = spacing_before2 = dT;
   levels_done = s.step;
+  // Each step ends with the coefficients of its pressure, and the start of
+  // the next one reuses them (choose_start): a restarted run computes them
+  // here, outside the work of its first step, which is then the same.
+  hierarchy.finest().update_coefficients(solver->solution());
   restart.reset();
 }
 

@@ -1,10 +1,13 @@
 #include "impact/PressurePredictor.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <initializer_list>
+#include <numbers>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace ehlsim {
 
@@ -89,6 +92,146 @@ void bounded_series_extrapolation(const Field& last, std::span<const Field* cons
       out(i, j) = bounded(series_at(last, earlier, i, j), bounds_at(last, before, n, i, j), 1.0);
     }
   }
+}
+
+namespace {
+
+/// field(c x(i), c y(j)) by bilinear interpolation (zero beyond the grid and
+/// on its outer boundary).
+double contracted_at(const Grid2D& grid, const Field& field, double c, int i, int j) {
+  const int n = grid.n;
+  const bool outer = i == n - 1 || j == n - 1 || (!grid.mirrored && (i == 0 || j == 0));
+  if (outer) return 0.0;
+  const double h = grid.h();
+  const double si = (c * grid.x(i) - grid.x(0)) / h;
+  const double sj = (c * grid.y(j) - grid.y(0)) / h;
+  const int i0 = static_cast<int>(std::floor(si));
+  const int j0 = static_cast<int>(std::floor(sj));
+  if (i0 < 0 || j0 < 0 || i0 >= n - 1 || j0 >= n - 1) return 0.0;
+  const double a = si - i0;
+  const double b = sj - j0;
+  return (1.0 - b) * ((1.0 - a) * field(i0, j0) + a * field(i0 + 1, j0)) +
+         b * ((1.0 - a) * field(i0, j0 + 1) + a * field(i0 + 1, j0 + 1));
+}
+
+/// The index range [first, last] of one axis whose coordinates lie within
+/// `reach` of the origin, inside the interior.
+std::array<int, 2> indices_within(const Grid2D& grid, double reach) {
+  const double h = grid.h();
+  const int first =
+      std::max(grid.first_interior(), static_cast<int>(std::ceil((-reach - grid.x(0)) / h)));
+  const int last = std::min(grid.n - 2, static_cast<int>(std::floor((reach - grid.x(0)) / h)));
+  return {first, last};
+}
+
+/// The largest |X| or |Y| of a point where `a` or `b` is positive.
+double pressure_reach(const Grid2D& grid, const Field& a, const Field& b) {
+  double reach = 0.0;
+  for (int j = 0; j < grid.n; ++j) {
+    for (int i = 0; i < grid.n; ++i) {
+      if (a(i, j) > 0.0 || b(i, j) > 0.0)
+        reach = std::max({reach, std::abs(grid.x(i)), std::abs(grid.y(j))});
+    }
+  }
+  return reach;
+}
+
+/// The least-squares misfit of `last` by s times `before` contracted by c,
+/// with the best amplitude s for that c, over the full grid (mirror images
+/// counted) within `box` x `box`: sum L^2 - (sum L B)^2 / sum B^2, L = last,
+/// B = the contracted level.  Row sums on the threads, added in order on one.
+double contraction_misfit(const Grid2D& grid, const Field& last, const Field& before, double c,
+                          std::array<int, 2> box) {
+  struct Sums {
+    double last_last = 0.0, last_before = 0.0, before_before = 0.0;
+  };
+  std::vector<Sums> rows(static_cast<std::size_t>(grid.n));
+  const bool threaded = worth_threads(grid);
+#pragma omp parallel for schedule(static) if (threaded)
+  for (int j = box[0]; j <= box[1]; ++j) {
+    Sums row;
+    for (int i = box[0]; i <= box[1]; ++i) {
+      const double weight = grid.multiplicity(i) * grid.multiplicity(j);
+      const double L = last(i, j);
+      const double B = contracted_at(grid, before, c, i, j);
+      row.last_last += weight * L * L;
+      row.last_before += weight * L * B;
+      row.before_before += weight * B * B;
+    }
+    rows[j] = row;
+  }
+  Sums sum;
+  for (int j = box[0]; j <= box[1]; ++j) {
+    sum.last_last += rows[j].last_last;
+    sum.last_before += rows[j].last_before;
+    sum.before_before += rows[j].before_before;
+  }
+  if (sum.before_before == 0.0) return sum.last_last;
+  return sum.last_last - sum.last_before * sum.last_before / sum.before_before;
+}
+
+}  // namespace
+
+void contract_radially(const Grid2D& grid, const Field& field, double contraction, Field& out) {
+  check_grids("contract_radially", field, {&out});
+  if (field.n() != grid.n)
+    throw std::invalid_argument("contract_radially: the field is not on the grid");
+  const int n = grid.n;
+#pragma omp parallel for schedule(static) if (worth_threads(grid))
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) out(i, j) = contracted_at(grid, field, contraction, i, j);
+  }
+}
+
+double radial_contraction(const Grid2D& grid, const Field& last, const Field& before) {
+  check_grids("radial_contraction", last, {&before});
+  if (last.n() != grid.n)
+    throw std::invalid_argument("radial_contraction: the fields are not on the grid");
+  const std::array<int, 2> box =
+      indices_within(grid, pressure_reach(grid, last, before) / kMinContraction);
+  const auto mismatch = [&](double c) { return contraction_misfit(grid, last, before, c, box); };
+  // Golden-section search (Kiefer 1953): each step keeps the part of the
+  // bracket that holds the smaller of its two inner values.
+  const double shrink = 1.0 / std::numbers::phi;
+  double low = kMinContraction;
+  double high = kMaxContraction;
+  double inner_low = high - shrink * (high - low);
+  double inner_high = low + shrink * (high - low);
+  double at_low = mismatch(inner_low);
+  double at_high = mismatch(inner_high);
+  while (high - low > kContractionResolution) {
+    if (at_low < at_high) {
+      high = inner_high;
+      inner_high = inner_low;
+      at_high = at_low;
+      inner_low = high - shrink * (high - low);
+      at_low = mismatch(inner_low);
+    } else {
+      low = inner_low;
+      inner_low = inner_high;
+      at_low = at_high;
+      inner_high = low + shrink * (high - low);
+      at_high = mismatch(inner_high);
+    }
+  }
+  return 0.5 * (low + high);
+}
+
+void contracting_frame_extrapolation(const Grid2D& grid, const Field& last,
+                                     std::span<const Field* const> earlier, double contraction,
+                                     Field& out) {
+  if (earlier.empty() || earlier.size() > kMaxEarlierLevels)
+    throw std::invalid_argument("contracting_frame_extrapolation: 1 to 3 earlier levels");
+  std::vector<Field> seen(earlier.size() + 1, Field(grid));  // the levels in the next step's frame
+  contract_radially(grid, last, contraction, seen[0]);
+  std::vector<const Field*> seen_earlier;
+  double factor = contraction;
+  for (std::size_t k = 0; k < earlier.size(); ++k) {
+    factor *= contraction;
+    contract_radially(grid, *earlier[k], factor, seen[k + 1]);
+    seen_earlier.push_back(&seen[k + 1]);
+  }
+  bounded_series_extrapolation(seen[0], seen_earlier, out);
 }
 
 }  // namespace ehlsim

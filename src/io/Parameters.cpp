@@ -341,6 +341,13 @@ void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
                    "a step has converged when, besides the residual, its last cycle changed the "
                    "film force by less than this times the largest force so far (0: the "
                    "residual alone)"));
+  r.push_back(boolean("solver.contracting_start", kDefaults.contracting_start,
+                      fmt::format("where the other starts of a step leave a residual above {:g} "
+                                  "times solver.tolerance, also try the series extrapolation in "
+                                  "a frame that contracts about the ball's axis with the pressure "
+                                  "(the rebound's spike ring), and keep it if its residual is "
+                                  "smaller",
+                                  kContractingStartTrigger)));
   r.push_back(choice("solver.symmetry", kSymmetryAuto,
                      {std::string(kSymmetryAuto), std::string(kSymmetryOff)},
                      "auto: solve on the quadrant X, Y >= 0 with mirror conditions on the axes "
@@ -1208,6 +1215,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.correction_safeguard = in.real("solver.correction_safeguard");
   c.retry_damping = in.real("solver.retry_damping");
   c.force_tolerance = in.real("solver.force_tolerance");
+  c.contracting_start = in.get<bool>("solver.contracting_start");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   check_undeformed_gap(in, c);
   check_step_count(in, c);
@@ -1360,6 +1368,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
   j["solver"]["correction_safeguard"] = c.correction_safeguard;
   j["solver"]["retry_damping"] = c.retry_damping;
   j["solver"]["force_tolerance"] = c.force_tolerance;
+  j["solver"]["contracting_start"] = c.contracting_start;
   j["solver"]["symmetry"] = c.use_symmetry ? kSymmetryAuto : kSymmetryOff;
   j["output"]["snapshot_start"] = c.snapshot_start;
   j["spike"] = {{"smoothing_points", c.spike.smoothing_points},
