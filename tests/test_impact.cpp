@@ -23,6 +23,7 @@
 #include <span>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dynamics/DryHertz.hpp"
@@ -1139,6 +1140,11 @@ namespace {
 class CycleLog final : public ImpactObserver {
  public:
   void on_cycle(const CycleRecord& c) override { cycles.push_back(c); }
+  void on_initial_cycle(int cycle, double residual) override {
+    initial.push_back({cycle, residual});
+    EXPECT_TRUE(cycles.empty()) << "the solve at T = 0 comes before the steps";
+  }
+  std::vector<std::pair<int, double>> initial;  ///< (cycle, residual before it) at T = 0
   void on_step(const StepRecord& r, const Field&, const Field&, bool) override {
     steps.push_back(r);
   }
@@ -1190,6 +1196,22 @@ TEST(ImpactConvergence, TheContractingStartHalvesTheStartResidualOfTheRebound) {
   EXPECT_EQ(contracting.T_lift_off, fixed.T_lift_off);
   EXPECT_NEAR(contracting.rebound_speed, fixed.rebound_speed, 1e-5);
   EXPECT_NEAR(contracting.max_force, fixed.max_force, 1e-5);
+}
+
+// The solve at T = 0 reports its cycles (the thread budget samples the
+// machine there: io/ThreadBudget.hpp), numbered from 1, before any step's.
+TEST(ImpactCycles, TheCyclesOfTheSolveAtTZeroAreReportedFirst) {
+  ImpactConfig cfg = moes_config(33);
+  cfg.T_end = 0.1;
+  CycleLog log;
+  ImpactProblem problem(cfg);
+  problem.run(log);
+  ASSERT_FALSE(log.initial.empty());
+  for (std::size_t k = 0; k < log.initial.size(); ++k) {
+    EXPECT_EQ(log.initial[k].first, static_cast<int>(k) + 1);
+    EXPECT_GT(log.initial[k].second, 0.0);
+  }
+  EXPECT_FALSE(log.cycles.empty());
 }
 
 TEST(ImpactCycles, EveryAttemptAndCycleOfEveryIntervalIsReported) {

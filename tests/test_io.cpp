@@ -2186,6 +2186,22 @@ TEST(ThreadBudget, UsesTheCoresOtherProcessesLeaveFree) {
   EXPECT_EQ(budget.update({-1, -1}), 2);
 }
 
+// A run reports no step during its solve at T = 0 (seconds on the finest
+// grids); the budget samples on every cycle as well, there and within a step.
+TEST(ThreadBudget, SamplesWithinTheSolveAtTZeroAndWithinAStep) {
+  const auto two_others = [] { return RunnableTasks{3, 1}; };
+  int applied = 0;
+  ThreadBudget at_t_zero(2, two_others, [&](int n) { applied = n; });
+  at_t_zero.on_initial_cycle(1, 0.5);
+  EXPECT_EQ(at_t_zero.threads(), 1);
+  EXPECT_EQ(applied, 1);
+  applied = 0;
+  ThreadBudget in_a_step(2, two_others, [&](int n) { applied = n; });
+  in_a_step.on_cycle(ehlsim::CycleRecord{});
+  EXPECT_EQ(in_a_step.threads(), 1);
+  EXPECT_EQ(applied, 1);
+}
+
 TEST(ThreadBudget, ReadsThisMachine) {
   const RunnableTasks tasks = read_runnable_tasks();
   // This test's own thread is running while it reads.

@@ -97,6 +97,10 @@ class ImpactObserver {
   /// Called after every multigrid cycle of a time step, and at the start of
   /// each attempt (cycle 0), before the step's on_step.
   virtual void on_cycle(const CycleRecord& /*record*/) {}
+  /// Called after every multigrid cycle of the quasi-static solve at T = 0,
+  /// before the first step: `cycle` counts from 1, `residual` is the one
+  /// before the cycle (solver.tolerance's measure).
+  virtual void on_initial_cycle(int /*cycle*/, double /*residual*/) {}
   virtual void on_finish(const RunSummary& /*summary*/) {}
   /// Asked after every completed step: true ends the run there (after the
   /// state sink has had the step's state) with RunInterrupted.

@@ -456,9 +456,11 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   const double tolerance = kInitialToleranceFactor * cfg.tolerance;
   for (int c = 1; c <= cfg.max_cycles; ++c) {
     const double force = fine.force(solver->solution());
-    if (solver->residual_norm() < tolerance && force_has_settled(force, force_before_cycle)) break;
+    const double residual = solver->residual_norm();
+    if (residual < tolerance && force_has_settled(force, force_before_cycle)) break;
     force_before_cycle = force;
     solver->cycle();
+    if (cycle_observer) cycle_observer->on_initial_cycle(c, residual);
   }
   hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour);
   hierarchy.set_omega_flow_dominated(cfg.relaxation.omega_flow_dominated);

@@ -23,6 +23,9 @@ class ObserverChain final : public ImpactObserver {
   void on_cycle(const CycleRecord& record) override {
     for (ImpactObserver* o : observers_) o->on_cycle(record);
   }
+  void on_initial_cycle(int cycle, double residual) override {
+    for (ImpactObserver* o : observers_) o->on_initial_cycle(cycle, residual);
+  }
   void on_finish(const RunSummary& summary) override {
     for (ImpactObserver* o : observers_) o->on_finish(summary);
   }

@@ -69,6 +69,14 @@ ThreadBudget::ThreadBudget(int cores, std::function<RunnableTasks()> sample,
       set_threads_(set_threads ? std::move(set_threads) : [](int n) { omp_set_num_threads(n); }) {}
 
 void ThreadBudget::on_step(const StepRecord&, const Field&, const Field&, bool) {
+  sample_when_due();
+}
+
+void ThreadBudget::on_cycle(const CycleRecord&) { sample_when_due(); }
+
+void ThreadBudget::on_initial_cycle(int, double) { sample_when_due(); }
+
+void ThreadBudget::sample_when_due() {
   const double now = now_seconds();
   if (last_sample_ >= 0.0 && now - last_sample_ < kSampleSeconds) return;
   last_sample_ = now;

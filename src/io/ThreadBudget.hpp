@@ -34,6 +34,13 @@ class ThreadBudget final : public ImpactObserver {
   /// the cores that the other processes left free (at least one), judged on
   /// the mean of the last kSamples samples.
   void on_step(const StepRecord& record, const Field& P, const Field& H, bool snapshot) override;
+  /// The same within a step and in the solve at T = 0, which can take many
+  /// seconds without a step: two runs started together kept both their
+  /// two-thread teams through it, spinning against each other, and took 3.6
+  /// and 4.3 times the solo time instead of 1.5 (docs/performance.md,
+  /// "Threads and a shared machine").
+  void on_cycle(const CycleRecord& record) override;
+  void on_initial_cycle(int cycle, double residual) override;
   /// The same decision from one sample (for tests): returns the thread count.
   int update(const RunnableTasks& sample);
   [[nodiscard]] int threads() const { return threads_; }
@@ -43,6 +50,8 @@ class ThreadBudget final : public ImpactObserver {
   int threads_;
   std::function<RunnableTasks()> sample_;
   std::function<void(int)> set_threads_;
+  /// Samples the machine if kSampleSeconds have passed since the last sample.
+  void sample_when_due();
   std::deque<int> others_;  ///< other processes' runnable tasks in the last samples
   double last_sample_ = -1.0;
 };
