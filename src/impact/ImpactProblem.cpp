@@ -181,7 +181,8 @@ struct ImpactProblem::Impl {
   /// The quasi-static film pressure at T = 0; returns its force.
   double solve_initial_pressure();
   /// Chooses the initial approximation of a step dt = omega x the last one
-  /// (the last pressure or its extrapolation in time) and returns its residual.
+  /// (the last pressure, its extrapolation in time, or, where both are poor,
+  /// the extrapolation in a contracting frame) and returns its residual.
   double choose_start(double omega);
   /// Makes `candidate` the solver's pressure, the step's start, if its
   /// residual is below `residual`, that of the pressure there now (or equal

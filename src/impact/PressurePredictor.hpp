@@ -47,7 +47,6 @@
 // cycling on until it is gone.
 #include <cstddef>
 #include <span>
-#include <vector>
 
 #include "grid/Grid.hpp"
 
@@ -72,15 +71,15 @@ void bounded_series_extrapolation(const Field& last, std::span<const Field* cons
 // (dT = h), and the whole pressure field shrinks towards the axis of the ball.
 // Seen point by point that history is not resolved in time, and the starts
 // above leave the spike's error: a residual measure of 0.04-0.2 at the start
-// of a rebound step against 1e-4 in the contact (257^2 and 513^2), more than
-// half of its square within four meshes of the spike.  In a frame that shrinks
+// of a rebound step against 1e-4 in the contact (257^2 and 513^2), 46-93 % of
+// its square within four meshes of the spike.  In a frame that shrinks
 // with the field the spike stands still: each level k steps back is seen at
 // contraction^(k+1), i.e. Q_k(X, Y) = P_k(c^(k+1) X, c^(k+1) Y), and the
 // series extrapolation of the Q_k (bounded as above) is the start.  c comes
 // from the last two levels (radial_contraction); the series carries the
-// change of the spike's height, which the frame leaves.  The interpolation smears a
-// spike one mesh wide, so the start is the better one only where the others
-// are poor: ImpactProblem offers it when their residual is far above the
+// change of the spike's height, which the frame leaves.  The interpolation
+// smears a spike one mesh wide, so the start is the better one only where the
+// others are poor: ImpactProblem offers it when their residual is far above the
 // tolerance, and keeps it only if its residual is smaller (docs/performance.md,
 // "Starts in a contracting frame").
 
@@ -90,8 +89,11 @@ void bounded_series_extrapolation(const Field& last, std::span<const Field* cons
 void contract_radially(const Grid2D& grid, const Field& field, double contraction, Field& out);
 
 /// The bounds of radial_contraction: a step shrinks the pressure field to at
-/// least 0.8 of its size or grows it to at most 1.25 times (the rebound of
-/// 129^2, the coarsest grid in use, contracts by 1.026 per step at most).
+/// least 0.8 of its size or grows it to at most 1.25 times.  The spike radius
+/// of the rebound (R_s of spike.csv, to T = 3.9) shrinks by at most 1.17 per
+/// step on 65^2, the coarsest grid of the case maps, and 1.04 on 257^2; where
+/// it shrinks faster (the collapse of the pocket), the search ends at the
+/// bound and the residual decides whether the start is taken.
 inline constexpr double kMinContraction = 0.8;
 inline constexpr double kMaxContraction = 1.25;
 /// The golden-section search ends when the contraction is known to this: at
