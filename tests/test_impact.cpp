@@ -1144,12 +1144,12 @@ class CycleLog final : public ImpactObserver {
     initial.push_back({cycle, residual});
     EXPECT_TRUE(cycles.empty()) << "the solve at T = 0 comes before the steps";
   }
-  std::vector<std::pair<int, double>> initial;  ///< (cycle, residual before it) at T = 0
   void on_step(const StepRecord& r, const Field&, const Field&, bool) override {
     steps.push_back(r);
   }
   std::vector<CycleRecord> cycles;
   std::vector<StepRecord> steps;
+  std::vector<std::pair<int, double>> initial;  ///< (cycle, residual before it) at T = 0
 };
 
 }  // namespace

@@ -319,8 +319,8 @@ double ImpactProblem::Impl::choose_start(double omega) {
     // bounded (PressurePredictor.hpp), and should it still start the step
     // worse than the last solution does, the start with the smaller residual
     // is taken.
-    // (Measured on 257^2: fewer stalled steps, and the saved retries pay for
-    // the extra residual evaluation.)
+    // (Measured on 257^2: fewer stalled steps.  The last solution's residual
+    // costs no deformation: the step before ended with its coefficients.)
     const std::array<const Field*, kMaxEarlierLevels> earlier{&P_before, &P_before2, &P_before3};
     const std::size_t series_levels = earlier_levels_a_step_apart(omega);
     const std::span<const Field* const> series = std::span(earlier).first(series_levels);
