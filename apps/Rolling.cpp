@@ -45,7 +45,6 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
 }  // namespace
 
 int run_rolling(const RollingOptions& options) {
-  const InterruptGuard interrupts;
   // Bad input throws ConfigError: exit 2 with its one line (main).
   const RollingConfig config =
       load_rolling_config(cli::config_path(options.config_file), options.overrides);

@@ -592,8 +592,8 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
 }
 
 int run_study(const StudyOptions& options) {
-  // SIGINT, SIGTERM, SIGHUP go on to the running cases; the study waits for them.
-  const InterruptGuard interrupts;
+  // SIGINT, SIGTERM, SIGHUP (main's InterruptGuard) go on to the running cases; the study
+  // waits for them.
   const auto start = std::chrono::steady_clock::now();
   StudyPlan plan = plan_study(options);
   const fs::path out = options.out_dir;

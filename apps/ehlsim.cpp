@@ -285,8 +285,7 @@ int read_restart_checkpoint(const ImpactOptions& options, std::optional<Checkpoi
 }
 
 int run_impact(const ImpactOptions& options) {
-  // First: a signal during the set-up also ends the run cleanly (after its first step).
-  const InterruptGuard interrupts;
+  // A signal during the set-up also ends the run cleanly, after its first step (main's guard).
   // Bad input throws ConfigError: exit 2 with its one line (main).
   const ImpactConfig config = load_config(cli::config_path(options.config_file), options.overrides);
   // Before anything big is allocated or the run directory is made.
@@ -360,7 +359,6 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
 }
 
 int run_spike(const SpikeOptions& options) {
-  const InterruptGuard interrupts;
   const std::filesystem::path out = options.out_dir.empty() ? options.run_dir : options.out_dir;
   RunAnalysisReport report;
   const auto interrupted = [&out]() {
@@ -443,6 +441,17 @@ int run_reporting_errors(int argc, char** argv) {
   }
 }
 
+/// The command, with SIGINT, SIGTERM and SIGHUP as requests to stop that it
+/// acts on (io/Interrupt.hpp) until it has ended, and ignored from then on:
+/// the exit code then tells what the command left on disk, whenever a signal
+/// comes.
+int run_with_stop_signals(int argc, char** argv) {
+  InterruptGuard interrupts;
+  const int code = run_reporting_errors(argc, argv);
+  interrupts.hold_until_exit();
+  return code;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -451,7 +460,8 @@ int main(int argc, char** argv) {
   // launcher may pass it on through exec, would have the kernel reap them
   // unseen: waitpid fails with ECHILD and their exit statuses are lost.
   std::signal(SIGCHLD, SIG_DFL);
-  const int code = run_reporting_errors(argc, argv);
+  const int code = run_with_stop_signals(argc, argv);
+  stop_here_for_tests("exit");  // with the signals ignored, the guard gone
   // HDF5's exit handler crashed (SIGSEGV) on a file whose nc_close had failed
   // (a full disk), when ehlsim wrote its NetCDF files itself.  They are written
   // in child processes now (io/IsolatedIo.hpp), so this process holds no file

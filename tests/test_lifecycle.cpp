@@ -892,6 +892,29 @@ TEST(Lifecycle, SpikeFailsRatherThanDropAFileAddedMeanwhile) {
   EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
 }
 
+/// A signal after the command has ended, in the moments before the process
+/// exits, finds the spike files published: exit 0, as without it.  (The
+/// handlers used to be restored there, and SIGTERM ended the process with 143
+/// after the swap: SpikeSignalledAnyTimeLeavesOneCompleteSet caught it in CI.)
+TEST(Lifecycle, ASignalAfterTheCommandEndedChangesNothing) {
+  TempDir work;
+  const fs::path run = run_with_earlier_spike_files(work);
+  const TempDir elsewhere("expected");
+  const fs::path expected = elsewhere / "spike";
+  ASSERT_EQ(ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote(expected.string()))
+                .exit_code,
+            0);
+  for (const int signal : {SIGTERM, SIGINT, SIGHUP}) {
+    const Child c = start({"spike", "--quiet", run.string()}, work / "spike", "exit");
+    ASSERT_TRUE(wait_until_stopped(c)) << signal;
+    const Result r = resume(c, signal);
+    EXPECT_EQ(r.exit_code, 0) << signal;
+    EXPECT_EQ(r.err, "") << signal;
+    EXPECT_EQ(contents_of(run, kSpikeFiles), contents_of(expected, kSpikeFiles)) << signal;
+  }
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+}
+
 /// Whether `c` has ended (it stays waitable).
 bool has_ended(const Child& c) {
   siginfo_t info{};

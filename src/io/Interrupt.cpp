@@ -46,10 +46,17 @@ InterruptGuard::InterruptGuard() {
 }
 
 InterruptGuard::~InterruptGuard() {
+  if (held_) return;
   for (std::size_t k = 0; k < kHandled.size(); ++k) sigaction(kHandled[k], &previous_[k], nullptr);
 }
 
 int InterruptGuard::received() { return g_received; }
+
+void InterruptGuard::hold_until_exit() {
+  const struct sigaction ignore = action_with(SIG_IGN);
+  for (const int signal_number : kHandled) sigaction(signal_number, &ignore, nullptr);
+  held_ = true;
+}
 
 PublishInterrupted::PublishInterrupted(int signal_number)
     : std::runtime_error(

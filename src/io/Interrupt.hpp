@@ -25,7 +25,7 @@ class InterruptGuard {
   /// Installs the handlers (without SA_RESTART: a blocking waitpid returns
   /// EINTR) and clears the flag.
   InterruptGuard();
-  /// Restores the handlers that were there before.
+  /// Restores the handlers that were there before (unless held).
   ~InterruptGuard();
   InterruptGuard(const InterruptGuard&) = delete;
   InterruptGuard& operator=(const InterruptGuard&) = delete;
@@ -33,9 +33,17 @@ class InterruptGuard {
   /// The first of the signals received since construction, 0 while none.
   [[nodiscard]] static int received();
 
+  /// Ignores SIGINT, SIGTERM and SIGHUP for the rest of the process (in every
+  /// thread: a disposition is the process's), and the destructor no longer
+  /// restores them.  Once a command has ended, its outcome is on disk; a
+  /// signal in the moments left before the exit (exit handlers running) must
+  /// not end the process with 128 + the signal for a run that was published.
+  void hold_until_exit();
+
  private:
   static constexpr std::array<int, 4> kHandled = {SIGINT, SIGTERM, SIGHUP, SIGXFSZ};
   std::array<struct sigaction, kHandled.size()> previous_{};
+  bool held_ = false;
 };
 
 /// Thrown by RunDirectory::publish when a signal came before the new contents
