@@ -913,6 +913,21 @@ TEST(Lifecycle, ASignalAfterTheCommandEndedChangesNothing) {
     EXPECT_EQ(contents_of(run, kSpikeFiles), contents_of(expected, kSpikeFiles)) << signal;
   }
   EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+
+  // The same for a run of `ehlsim impact` (the guard is one for every command).
+  const fs::path reference = elsewhere / "impact";
+  ASSERT_EQ(run_into(reference, "--set time.T_end=0.3").exit_code, 0);
+  const fs::path published = work / "impact-run";
+  const Child c =
+      start({"impact", "--quiet", "--set", "grid.points=33", "--set", "body.elastic=false", "--set",
+             "time.T_end=0.3", "--out", published.string()},
+            work / "impact", "exit");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const Result r = resume(c, SIGTERM);
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(names_in(published), names_in(reference));
+  EXPECT_EQ(read_file(published / "timeseries.csv"), read_file(reference / "timeseries.csv"));
 }
 
 /// Whether `c` has ended (it stays waitable).
