@@ -96,20 +96,49 @@ void bounded_series_extrapolation(const Field& last, std::span<const Field* cons
 
 namespace {
 
+/// Where the points of one axis land on the grid when the field is sampled at
+/// c times their coordinate: the lower index of the cell (-1: none, beyond
+/// the grid or on its outer boundary) and the weight of the upper neighbour.
+/// Made once per c, so that a sweep over the grid only interpolates.
+struct ContractedAxis {
+  std::vector<int> cell;
+  std::vector<double> weight;
+};
+
+ContractedAxis contracted_axis(const Grid2D& grid, double c, const auto& coordinate) {
+  const int n = grid.n;
+  const double h = grid.h();
+  ContractedAxis axis{std::vector<int>(static_cast<std::size_t>(n), -1),
+                      std::vector<double>(static_cast<std::size_t>(n), 0.0)};
+  for (int k = 0; k < n; ++k) {
+    const bool outer = k == n - 1 || (!grid.mirrored && k == 0);
+    const double s = (c * coordinate(k) - coordinate(0)) / h;
+    const int k0 = static_cast<int>(std::floor(s));
+    if (outer || k0 < 0 || k0 >= n - 1) continue;
+    axis.cell[k] = k0;
+    axis.weight[k] = s - k0;
+  }
+  return axis;
+}
+
+/// Both axes of `grid` contracted by c.
+struct ContractedGrid {
+  ContractedAxis x, y;
+};
+
+ContractedGrid contracted_grid(const Grid2D& grid, double c) {
+  return {contracted_axis(grid, c, [&grid](int i) { return grid.x(i); }),
+          contracted_axis(grid, c, [&grid](int j) { return grid.y(j); })};
+}
+
 /// field(c x(i), c y(j)) by bilinear interpolation (zero beyond the grid and
 /// on its outer boundary).
-double contracted_at(const Grid2D& grid, const Field& field, double c, int i, int j) {
-  const int n = grid.n;
-  const bool outer = i == n - 1 || j == n - 1 || (!grid.mirrored && (i == 0 || j == 0));
-  if (outer) return 0.0;
-  const double h = grid.h();
-  const double si = (c * grid.x(i) - grid.x(0)) / h;
-  const double sj = (c * grid.y(j) - grid.y(0)) / h;
-  const int i0 = static_cast<int>(std::floor(si));
-  const int j0 = static_cast<int>(std::floor(sj));
-  if (i0 < 0 || j0 < 0 || i0 >= n - 1 || j0 >= n - 1) return 0.0;
-  const double a = si - i0;
-  const double b = sj - j0;
+double contracted_at(const ContractedGrid& at, const Field& field, int i, int j) {
+  const int i0 = at.x.cell[static_cast<std::size_t>(i)];
+  const int j0 = at.y.cell[static_cast<std::size_t>(j)];
+  if (i0 < 0 || j0 < 0) return 0.0;
+  const double a = at.x.weight[static_cast<std::size_t>(i)];
+  const double b = at.y.weight[static_cast<std::size_t>(j)];
   return (1.0 - b) * ((1.0 - a) * field(i0, j0) + a * field(i0 + 1, j0)) +
          b * ((1.0 - a) * field(i0, j0 + 1) + a * field(i0 + 1, j0 + 1));
 }
@@ -146,6 +175,7 @@ double contraction_misfit(const Grid2D& grid, const Field& last, const Field& be
     double last_last = 0.0, last_before = 0.0, before_before = 0.0;
   };
   std::vector<Sums> rows(static_cast<std::size_t>(grid.n));
+  const ContractedGrid at = contracted_grid(grid, c);
   const bool threaded = worth_threads(grid);
 #pragma omp parallel for schedule(static) if (threaded)
   for (int j = box[0]; j <= box[1]; ++j) {
@@ -153,7 +183,7 @@ double contraction_misfit(const Grid2D& grid, const Field& last, const Field& be
     for (int i = box[0]; i <= box[1]; ++i) {
       const double weight = grid.multiplicity(i) * grid.multiplicity(j);
       const double L = last(i, j);
-      const double B = contracted_at(grid, before, c, i, j);
+      const double B = contracted_at(at, before, i, j);
       row.last_last += weight * L * L;
       row.last_before += weight * L * B;
       row.before_before += weight * B * B;
@@ -177,9 +207,10 @@ void contract_radially(const Grid2D& grid, const Field& field, double contractio
   if (field.n() != grid.n)
     throw std::invalid_argument("contract_radially: the field is not on the grid");
   const int n = grid.n;
+  const ContractedGrid at = contracted_grid(grid, contraction);
 #pragma omp parallel for schedule(static) if (worth_threads(grid))
   for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) out(i, j) = contracted_at(grid, field, contraction, i, j);
+    for (int i = 0; i < n; ++i) out(i, j) = contracted_at(at, field, i, j);
   }
 }
 
