@@ -18,6 +18,7 @@
 #include "rolling/RollingProblem.hpp"
 
 using namespace ehlsim;
+using cli::print_out;
 
 CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options) {
   CLI::App* cmd = app.add_subcommand(
@@ -31,15 +32,15 @@ CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options) {
 
 namespace {
 void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
-  fmt::print("ehlsim {} rolling -> {}\n", EHLSIM_VERSION, out_dir);
-  fmt::print(
+  print_out("ehlsim {} rolling -> {}\n", EHLSIM_VERSION, out_dir);
+  print_out(
       "  case       M = {:.6g}, L = {:.6g}, D = {:.6g} (lambda_bar = {:.6g}, alpha_bar = "
       "{:.6g})\n",
       c.M, c.L, c.D, c.lambda_bar, c.alpha_bar);
-  fmt::print("  lubricant  {}, {}\n", viscosity_model_text(c.lubricant.viscosity),
-             density_model_text(c.lubricant.density));
-  fmt::print("  grid       {}^2 on X in [{:g}, {:g}], Y in [{:g}, {:g}]\n", c.grid_points, c.x_min,
-             c.x_max, c.y_min, c.y_max);
+  print_out("  lubricant  {}, {}\n", viscosity_model_text(c.lubricant.viscosity),
+            density_model_text(c.lubricant.density));
+  print_out("  grid       {}^2 on X in [{:g}, {:g}], Y in [{:g}, {:g}]\n", c.grid_points, c.x_min,
+            c.x_max, c.y_min, c.y_max);
   std::fflush(stdout);
 }
 }  // namespace
@@ -60,8 +61,8 @@ int run_rolling(const RollingOptions& options) {
     result = problem.run([&](const RollingCycle& c) {
       if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
       if (options.quiet) return;
-      fmt::print("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}\n", c.points,
-                 c.cycle, c.residual, c.force_error, c.Hc);
+      print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}\n", c.points,
+                c.cycle, c.residual, c.force_error, c.Hc);
     });
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());
@@ -86,7 +87,7 @@ int run_rolling(const RollingOptions& options) {
     return exit_code_for_signal(e.signal);
   }
   if (!options.quiet) {
-    fmt::print(
+    print_out(
         "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "
         "P_max = {:.5g}; {} cycles, {:.2f} s; output in {}\n",
         result.Hc, hertz_to_moes_film(result.Hc, config.M),

@@ -101,6 +101,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace ehlsim;
 using cli::kExitOk;
+using cli::print_out;
 
 /// The paper's cases (Lubrecht & Venner 2022, figure 5): M = 10, 20, 50, 100, L = 10.
 constexpr double kStudyM[] = {100.0, 50.0, 20.0, 10.0};  // longest first
@@ -310,11 +311,11 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       } catch (const std::runtime_error& e) {
         // The cases already running are still waited for.
         c.exit_code = cli::kExitFailure;
-        fmt::print("  FAILED   {}: {}\n", case_label(c), e.what());
+        print_out("  FAILED   {}: {}\n", case_label(c), e.what());
         continue;
       }
       running[c.pid] = &c;
-      fmt::print("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
+      print_out("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
       std::fflush(stdout);
     }
     if (running.empty()) break;  // interrupted before the next start
@@ -334,10 +335,10 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
     if (c.exit_code == kExitOk) {
       std::error_code ec;  // already gone after the first case
       fs::remove(stale_summary, ec);
-      fmt::print("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
+      print_out("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
     } else {
-      fmt::print("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
-                 c.exit_code, last_line(c.log));
+      print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
+                c.exit_code, last_line(c.log));
     }
     std::fflush(stdout);
   }
@@ -548,9 +549,9 @@ std::variant<nlohmann::json, int> figures_entry(const StudyOptions& options, con
     return report_interruption(cases, "during the figure script (figures/ was not changed)");
   }
   if (code != cli::kExitOk) {
-    fmt::print("  figure script failed (exit {}): {}\n", code, last_line(log));
+    print_out("  figure script failed (exit {}): {}\n", code, last_line(log));
   } else {
-    fmt::print("  figures in {}\n", (out / "figures").string());
+    print_out("  figures in {}\n", (out / "figures").string());
   }
   return nlohmann::json{
       {"script", script.string()}, {"exit_code", code}, {"wall_seconds", seconds_since(start)}};
@@ -604,10 +605,9 @@ int run_study(const StudyOptions& options) {
                       "--out");
   }
   fs::create_directories(out / "logs");
-  fmt::print(
-      "ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",
-      out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid, fmt::join(kRollingM, ", "),
-      options.rolling_grid, options.jobs);
+  print_out("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",
+            out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid,
+            fmt::join(kRollingM, ", "), options.rolling_grid, options.jobs);
   std::fflush(stdout);
   run_cases(plan.cases, options.jobs, out / "study.json");
   if (InterruptGuard::received() != 0) return report_interruption(plan.cases);
@@ -635,7 +635,7 @@ int run_study(const StudyOptions& options) {
   if (InterruptGuard::received() != 0) return report_interruption(plan.cases);
   summary["wall_seconds"] = seconds_since(start);
   write_json_atomic(out / "study.json", summary);
-  fmt::print("study {} in {:.1f} s; summary in {}\n", ok ? "finished" : "FAILED",
-             seconds_since(start), (out / "study.json").string());
+  print_out("study {} in {:.1f} s; summary in {}\n", ok ? "finished" : "FAILED",
+            seconds_since(start), (out / "study.json").string());
   return ok ? cli::kExitOk : cli::kExitFailure;
 }

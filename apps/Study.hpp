@@ -1,11 +1,15 @@
 #pragma once
 // `ehlsim study`: the pressure-spike study of the paper with one command
 // (apps/Study.cpp), and what the subcommands of ehlsim share.
+#include <fmt/format.h>
+
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace cli {
@@ -13,6 +17,17 @@ namespace cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
+
+/// Text for stdout: what a command reports as it goes (the case, a study's
+/// progress, the summary).  A write that fails because the reader went away
+/// (`ehlsim study | head -3`) or stdout is closed is not a failure of the
+/// command: the rest of the report is lost, the run goes on, and the exit
+/// code tells what it left on disk (SIGPIPE is ignored: apps/ehlsim.cpp).
+template <typename... Args>
+void print_out(fmt::format_string<Args...> format, Args&&... args) {
+  const std::string text = fmt::format(format, std::forward<Args>(args)...);
+  std::fwrite(text.data(), 1, text.size(), stdout);  // its error is the reader's
+}
 
 /// "ehlsim: error: <message>" as one line on stderr.  Words longer than any
 /// path (a runaway value that reached the message unshortened, e.g. through

@@ -57,6 +57,7 @@ using cli::kExitBadInput;
 using cli::kExitFailure;
 using cli::kExitOk;
 using cli::print_error;
+using cli::print_out;
 
 // ---------------------------------------------------------------------------
 // ehlsim impact
@@ -85,17 +86,17 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
 
 void print_case(const ImpactConfig& c, const std::string& out_dir) {
   const Grid2D grid(c.grid_points, c.half_width);
-  fmt::print("ehlsim {} impact -> {}\n", EHLSIM_VERSION, out_dir);
-  fmt::print("  case       M = {:.6g}, L = {:.6g} (lambda_bar = {:.6g}, alpha_bar = {:.6g})\n", c.M,
-             c.L, c.lambda_bar, c.alpha_bar);
+  print_out("ehlsim {} impact -> {}\n", EHLSIM_VERSION, out_dir);
+  print_out("  case       M = {:.6g}, L = {:.6g} (lambda_bar = {:.6g}, alpha_bar = {:.6g})\n", c.M,
+            c.L, c.lambda_bar, c.alpha_bar);
   if (c.physical) {
     const PhysicalCase& p = *c.physical;
-    fmt::print(
+    print_out(
         "  physical   R = {:.4g} m, m = {:.4g} kg, v0 = {:.4g} m/s, E' = {:.4g} Pa, "
         "eta0 = {:.4g} Pa s, alpha = {:.4g} 1/Pa\n",
         p.reduced_radius_m, p.mass_kg, p.impact_speed_m_s, p.reduced_modulus_Pa, p.eta0_Pa_s,
         p.alpha_per_Pa);
-    fmt::print(
+    print_out(
         "  scales     delta* = {:.4g} m, a* = {:.4g} m, ph* = {:.4g} Pa, F* = {:.4g} N, "
         "t_bar = {:.4g} s\n",
         p.delta_star_m, p.a_star_m, p.ph_star_Pa, p.F_star_N, p.t_bar_s);
@@ -106,29 +107,29 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
     lubricant += fmt::format(" (eta0 = {:.4g} Pa s, z = {:.4g})", c.eta0_Pa_s, c.roelands_z);
   }
   if (c.ph_star_Pa > 0.0) lubricant += fmt::format(", ph* = {:.4g} Pa", c.ph_star_Pa);
-  fmt::print("  lubricant  {}\n", lubricant);
-  fmt::print("  body       {}{}\n", c.elastic ? "elastic" : "rigid",
-             c.waviness_amplitude > 0.0
-                 ? fmt::format(", waviness A = {:.4g}, wavelength {:.4g}, angle {:.4g} deg",
-                               c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg)
-                 : std::string());
-  fmt::print("  grid       {}^2 on [-{:g}, {:g}]^2, h = {:.6g}{}\n", c.grid_points, c.half_width,
-             c.half_width, grid.h(),
-             is_mirror_symmetric(c) ? ", solved on the quadrant X, Y >= 0 (mirror symmetry)" : "");
-  fmt::print("  time       dT = {:.6g}, {}, Delta0 = {:g}, V0 = {:g}\n", effective_time_step(c),
-             std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
-             c.Delta0, c.V0);
-  fmt::print(
+  print_out("  lubricant  {}\n", lubricant);
+  print_out("  body       {}{}\n", c.elastic ? "elastic" : "rigid",
+            c.waviness_amplitude > 0.0
+                ? fmt::format(", waviness A = {:.4g}, wavelength {:.4g}, angle {:.4g} deg",
+                              c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg)
+                : std::string());
+  print_out("  grid       {}^2 on [-{:g}, {:g}]^2, h = {:.6g}{}\n", c.grid_points, c.half_width,
+            c.half_width, grid.h(),
+            is_mirror_symmetric(c) ? ", solved on the quadrant X, Y >= 0 (mirror symmetry)" : "");
+  print_out("  time       dT = {:.6g}, {}, Delta0 = {:g}, V0 = {:g}\n", effective_time_step(c),
+            std::isfinite(c.T_end) ? fmt::format("T_end = {:g}", c.T_end) : "until lift-off",
+            c.Delta0, c.V0);
+  print_out(
       "  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
       "deformation {} (once per {}), lines {}\n",
       cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
       c.coarsest_points, deformation_method_text(c.deformation),
       c.relaxation.deformation_each_colour ? "colour" : "sweep",
       c.relaxation.alternate_directions ? "along X and Y in turn" : "along X");
-  fmt::print("  output     fields every {} steps{}\n", c.snapshot_every,
-             c.snapshot_times.empty()
-                 ? std::string()
-                 : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));
+  print_out("  output     fields every {} steps{}\n", c.snapshot_every,
+            c.snapshot_times.empty()
+                ? std::string()
+                : fmt::format(" and at T = {}", fmt::join(c.snapshot_times, ", ")));
   std::fflush(stdout);
 }
 
@@ -136,25 +137,25 @@ void print_summary(const RunSummary& s, const RunOutput& output,
                    const std::filesystem::path& directory) {
   switch (s.outcome) {
     case RunOutcome::LiftOff:
-      fmt::print("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
+      print_out("lift-off at T = {:.6g}, rebound speed {:.6g}\n", s.T_lift_off, s.rebound_speed);
       break;
     case RunOutcome::AtRest:
-      fmt::print(
+      print_out(
           "at rest in the film at T = {:.6g}: no rebound (energy left {:.3g} of the "
           "impact energy, dDelta/dT at most {:.3g} V0 from now on)\n",
           s.T_final, s.final_energy, std::sqrt(s.final_energy));
       break;
     case RunOutcome::TEnd:
-      fmt::print("no lift-off by T = {:.6g} (time.T_end)\n", s.T_final);
+      print_out("no lift-off by T = {:.6g} (time.T_end)\n", s.T_final);
       break;
   }
-  fmt::print(
+  print_out(
       "max force {:.6g} at T = {:.6g}, min central film {:.6g} at T = {:.6g}, impulse {:.6g}\n",
       s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
-  fmt::print("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps,
-             output.snapshots_written(), output.elapsed_seconds(), directory.string());
+  print_out("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps, output.snapshots_written(),
+            output.elapsed_seconds(), directory.string());
   if (s.unconverged_steps > 0 || s.retried_steps > 0)
-    fmt::print(
+    print_out(
         "{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
         "{} steps were solved again with more damping\n",
         s.unconverged_steps, s.retried_steps);
@@ -301,8 +302,8 @@ int run_impact(const ImpactOptions& options) {
   if (!options.quiet) {
     print_case(config, options.out_dir);
     if (checkpoint)
-      fmt::print("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
-                 checkpoint->state.step, checkpoint->state.ball.T);
+      print_out("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
+                checkpoint->state.step, checkpoint->state.ball.T);
   }
   const nlohmann::json invocation = invocation_json(options, checkpoint, memory);
   KeptCheckpoint kept;
@@ -376,9 +377,9 @@ int run_spike(const SpikeOptions& options) {
     return interrupted();
   }
   if (!options.quiet) {
-    fmt::print("{} snapshots analysed; wrote", report.snapshots);
-    for (const auto& file : report.files) fmt::print(" {}", file.string());
-    fmt::print("\n");
+    print_out("{} snapshots analysed; wrote", report.snapshots);
+    for (const auto& file : report.files) print_out(" {}", file.string());
+    print_out("\n");
   }
   return kExitOk;
 }
@@ -460,6 +461,11 @@ int main(int argc, char** argv) {
   // launcher may pass it on through exec, would have the kernel reap them
   // unseen: waitpid fails with ECHILD and their exit statuses are lost.
   std::signal(SIGCHLD, SIG_DFL);
+  // What ehlsim makes is files; stdout only reports.  A reader of stdout that
+  // goes away (`ehlsim study | head -3`) killed the study at its next line
+  // before, with its cases still running: now the write fails and is dropped
+  // (cli::print_out), and the command runs to its end.
+  std::signal(SIGPIPE, SIG_IGN);
   const int code = run_with_stop_signals(argc, argv);
   stop_here_for_tests("exit");  // with the signals ignored, the guard gone
   // HDF5's exit handler crashed (SIGSEGV) on a file whose nc_close had failed

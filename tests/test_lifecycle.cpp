@@ -731,6 +731,52 @@ std::vector<std::string> tiny_study(const fs::path& out) {
           "--set", "time.T_end=0.2", "--out", out.string()};
 }
 
+/// Runs `args` with stdout a pipe that nobody reads any more (`ehlsim ... |
+/// head -1` once head has ended) and stderr to `err`; its exit code.
+int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs::path& err) {
+  int ends[2];
+  if (pipe(ends) != 0) return -1;
+  std::vector<std::string> argv_strings = {EHLSIM_BINARY};
+  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int error = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(ends[1], STDOUT_FILENO);
+    dup2(error, STDERR_FILENO);
+    close(ends[0]);
+    execv(EHLSIM_BINARY, argv.data());
+    _exit(127);
+  }
+  close(ends[0]);  // the reader is gone before the first line
+  close(ends[1]);
+  return exit_code_of(Child{pid, "", err});
+}
+
+/// What ehlsim makes is files; stdout only reports.  A reader of stdout that
+/// went away ended a command at its next line with SIGPIPE (exit 141): an
+/// impact run after it had published, a study in the middle, its cases left
+/// running.  Now each command runs to its end and says so by its exit code.
+TEST(Lifecycle, AReaderOfStdoutThatWentAwayEndsNoCommand) {
+  TempDir work;
+  const fs::path run = work / "run";
+  EXPECT_EQ(exit_code_with_stdout_unread({"impact", "--set", "grid.points=33", "--set",
+                                          "time.T_end=0.3", "--out", run.string()},
+                                         work / "impact.err"),
+            0)
+      << read_file(work / "impact.err");
+  EXPECT_TRUE(fs::exists(run / "run.json"));
+  EXPECT_EQ(exit_code_with_stdout_unread({"spike", run.string()}, work / "spike.err"), 0)
+      << read_file(work / "spike.err");
+  EXPECT_TRUE(fs::exists(run / "spike_snapshots.csv"));
+  const fs::path study = work / "study";
+  EXPECT_EQ(exit_code_with_stdout_unread(tiny_study(study), work / "study.err"), 0)
+      << read_file(work / "study.err");
+  EXPECT_TRUE(fs::exists(study / "study.json"));
+}
+
 TEST(Lifecycle, ASignalDuringTheStudysAnalysesWritesNoSummary) {
   TempDir work;
   const fs::path study = work / "study";
