@@ -77,15 +77,28 @@ struct Child {
 /// Environment variables set for a child: name, value.
 using Environment = std::vector<std::pair<std::string, std::string>>;
 
+/// EHLSIM_BINARY and `args` as execv takes them.
+class CommandLine {
+ public:
+  explicit CommandLine(const std::vector<std::string>& args) : strings_{EHLSIM_BINARY} {
+    strings_.insert(strings_.end(), args.begin(), args.end());
+    for (std::string& s : strings_) pointers_.push_back(s.data());
+    pointers_.push_back(nullptr);
+  }
+  CommandLine(const CommandLine&) = delete;  // the pointers are into this one's strings
+  CommandLine& operator=(const CommandLine&) = delete;
+  [[nodiscard]] char* const* argv() const { return pointers_.data(); }
+
+ private:
+  std::vector<std::string> strings_;
+  std::vector<char*> pointers_;
+};
+
 /// `stop_at`: the test hook EHLSIM_TEST_STOP_AT (docs/usage.md, "Test hooks").
 Child start(const std::vector<std::string>& args, const fs::path& capture,
             const std::string& stop_at = "", const Environment& environment = {}) {
   Child c{-1, capture.string() + ".out", capture.string() + ".err"};
-  std::vector<std::string> argv_strings = {EHLSIM_BINARY};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& s : argv_strings) argv.push_back(s.data());
-  argv.push_back(nullptr);
+  const CommandLine command(args);
   c.pid = fork();
   if (c.pid == 0) {
     const int out = open(c.out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -94,7 +107,7 @@ Child start(const std::vector<std::string>& args, const fs::path& capture,
     dup2(err, STDERR_FILENO);
     if (!stop_at.empty()) setenv("EHLSIM_TEST_STOP_AT", stop_at.c_str(), 1);
     for (const auto& [name, value] : environment) setenv(name.c_str(), value.c_str(), 1);
-    execv(EHLSIM_BINARY, argv.data());
+    execv(EHLSIM_BINARY, command.argv());
     _exit(127);
   }
   return c;
@@ -736,18 +749,14 @@ std::vector<std::string> tiny_study(const fs::path& out) {
 int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs::path& err) {
   int ends[2];
   if (pipe(ends) != 0) return -1;
-  std::vector<std::string> argv_strings = {EHLSIM_BINARY};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& s : argv_strings) argv.push_back(s.data());
-  argv.push_back(nullptr);
+  const CommandLine command(args);
   const pid_t pid = fork();
   if (pid == 0) {
     const int error = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(ends[1], STDOUT_FILENO);
     dup2(error, STDERR_FILENO);
     close(ends[0]);
-    execv(EHLSIM_BINARY, argv.data());
+    execv(EHLSIM_BINARY, command.argv());
     _exit(127);
   }
   close(ends[0]);  // the reader is gone before the first line
