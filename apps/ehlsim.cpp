@@ -462,9 +462,9 @@ int main(int argc, char** argv) {
   // unseen: waitpid fails with ECHILD and their exit statuses are lost.
   std::signal(SIGCHLD, SIG_DFL);
   // What ehlsim makes is files; stdout only reports.  A reader of stdout that
-  // goes away (`ehlsim study | head -3`) killed the study at its next line
-  // before, with its cases still running: now the write fails and is dropped
-  // (cli::print_out), and the command runs to its end.
+  // goes away (`ehlsim study | head -3`) must not end a command (a study would
+  // die at its next line, its cases left running): the write fails and is
+  // dropped (cli::print_out), and the command runs to its end.
   std::signal(SIGPIPE, SIG_IGN);
   const int code = run_with_stop_signals(argc, argv);
   stop_here_for_tests("exit");  // with the signals ignored, the guard gone
