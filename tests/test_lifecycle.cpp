@@ -7,9 +7,11 @@
 // one, `ehlsim study` passes a signal on to its cases and, signalled in its
 // analyses or figure script, leaves no study.json and the earlier figures/,
 // `ehlsim spike` replaces its three files in one swap,
-// and a signal before a swap (during an analysis, after the last step of a
-// run) leaves DIR as it was.  The test hook EHLSIM_TEST_STOP_AT stops the
-// process at a chosen point, so that a test can look and signal there.
+// a signal before a swap (during an analysis, after the last step of a
+// run) leaves DIR as it was, a signal after a command has ended changes
+// nothing, and a reader of stdout that went away ends no command.  The test hook
+// EHLSIM_TEST_STOP_AT stops the process at a chosen point, so that a test can look and signal
+// there.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
@@ -751,6 +753,11 @@ int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs:
   if (pipe(ends) != 0) return -1;
   const CommandLine command(args);
   const pid_t pid = fork();
+  if (pid < 0) {
+    close(ends[0]);
+    close(ends[1]);
+    return -1;
+  }
   if (pid == 0) {
     const int error = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(ends[1], STDOUT_FILENO);
