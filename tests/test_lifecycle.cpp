@@ -6,12 +6,11 @@
 // a rolling run stopped by SIGTERM leaves nothing, a symbolic link --out stays
 // one, `ehlsim study` passes a signal on to its cases and, signalled in its
 // analyses or figure script, leaves no study.json and the earlier figures/,
-// `ehlsim spike` replaces its three files in one swap,
-// a signal before a swap (during an analysis, after the last step of a
-// run) leaves DIR as it was, a signal after a command has ended changes
-// nothing, and a reader of stdout that went away ends no command.  The test hook
-// EHLSIM_TEST_STOP_AT stops the process at a chosen point, so that a test can look and signal
-// there.
+// `ehlsim spike` replaces its three files in one swap, a signal before a swap
+// (during an analysis, after the last step of a run) leaves DIR as it was, a
+// signal after a command has ended changes nothing, and a reader of stdout
+// that went away ends no command.  The test hook EHLSIM_TEST_STOP_AT stops the
+// process at a chosen point, so that a test can look and signal there.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
