@@ -921,25 +921,11 @@ void add_lubricant_parameters(std::vector<ParameterSpec>& r) {
                    "reference Hertz pressure, needed by roelands and dowson-higginson"));
 }
 
-void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& defaults,
-                           const std::string& max_cycles_doc) {
-  r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
-                     {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
-  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), kUnbounded, "",
-                   "converged when the scaled finest-grid residual is below this"));
-  r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
-                      max_cycles_doc));
-  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), kUnbounded, false,
-                      "relaxation sweeps before the coarse-grid correction"));
-  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), kUnbounded, false,
-                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
-  r.push_back(integer("solver.coarsest_points", defaults.coarsest_points,
-                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
-                      "points per side of the coarsest multigrid level (<= grid.points)"));
-  r.push_back(choice("solver.deformation", deformation_method_text(defaults.deformation),
-                     {std::string(kFft), std::string(kDirect)},
-                     "deformation integrals: fft (zero-padded FFT convolution) or direct"));
-  const reynolds::RelaxationSettings& relax = defaults.relaxation;
+namespace {
+
+/// The keys of the line relaxation, shared by every mode that solves Reynolds.
+void add_relaxation_parameters(std::vector<ParameterSpec>& r,
+                               const reynolds::RelaxationSettings& relax) {
   r.push_back(real("solver.switch_ratio", relax.switch_ratio, "", above(0), kUnbounded, "",
                    "a point is relaxed by Gauss-Seidel where its flow coefficients exceed this "
                    "times the elastic coefficient of its transport term, else by distributive "
@@ -965,6 +951,29 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      "the relaxation recomputes the elastic deformation once per sweep (and "
                      "for its second colour where elastically coupled Gauss-Seidel points "
                      "outnumber distributive ones), or before each of its two colours"));
+}
+
+}  // namespace
+
+void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& defaults,
+                           const std::string& max_cycles_doc) {
+  r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
+                     {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
+  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), kUnbounded, "",
+                   "converged when the scaled finest-grid residual is below this"));
+  r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
+                      max_cycles_doc));
+  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), kUnbounded, false,
+                      "relaxation sweeps before the coarse-grid correction"));
+  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), kUnbounded, false,
+                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
+  r.push_back(integer("solver.coarsest_points", defaults.coarsest_points,
+                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
+                      "points per side of the coarsest multigrid level (<= grid.points)"));
+  r.push_back(choice("solver.deformation", deformation_method_text(defaults.deformation),
+                     {std::string(kFft), std::string(kDirect)},
+                     "deformation integrals: fft (zero-padded FFT convolution) or direct"));
+  add_relaxation_parameters(r, defaults.relaxation);
   r.push_back(choice("solver.face_mean", face_mean_text(defaults.face_mean),
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
