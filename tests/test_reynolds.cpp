@@ -8,6 +8,7 @@
 #include <cmath>
 #include <ostream>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -423,6 +424,42 @@ TEST(LocalNewton, RepairsALocalErrorInsideItsWindowOnly) {
   EXPECT_EQ(step.unknowns, 49);
   EXPECT_EQ(step.undone, 0);
   EXPECT_LT(error_after_step(P, hertz.exact, windows), 0.2 * 1e-2);
+}
+
+// A window whose Jacobian is singular gets no step: P stays as it was and the
+// caller gets the residual it passed, to record its cycle and judge it (the
+// rolling contact lost such a cycle, from an iterate that had blown up, from
+// its history, and numbered the next one after it).  Here rigid bodies that
+// overlap (H < 0 over the contact: no flow, and no elastic term) make every
+// row of the window zero.
+TEST(LocalNewton, ASingularWindowGetsNoStep) {
+  const Grid2D grid(33, 1.5);
+  Lubricant lubricant;
+  lubricant.alpha_bar = 10.0;
+  OperatorSettings settings;
+  settings.elastic = false;
+  ReynoldsOperator op(grid, lubricant, settings);
+  op.set_time_step(grid.h(), 1.5);
+  op.set_delta(-2.0);
+  const HertzLike hertz(grid, op);
+  Field P = hertz.exact;
+  Field f = hertz.f;
+  f(16, 16) += 1.0;
+  const Field before = P;
+  const std::vector<Window> windows = windows_at_largest_residuals(op, P, f, 2, 1);
+  ASSERT_TRUE(windows.size() == 1 && windows[0].contains(16, 16));
+  EXPECT_THROW(local_newton_step(op, P, f, windows), std::runtime_error);
+  int settled = 0;
+  const GlobalUnknown unchanged{[&] {
+                                  ++settled;
+                                  return 0.0;
+                                },
+                                [](double) {}};
+  const double residual = 0.5;
+  EXPECT_EQ(newton_on_worst_windows(op, P, f, {2, 1}, residual, unchanged), residual);
+  EXPECT_EQ(settled, 0);
+  for (int j = 0; j < grid.n; ++j)
+    for (int i = 0; i < grid.n; ++i) ASSERT_EQ(P(i, j), before(i, j)) << i << ", " << j;
 }
 
 // Errors far apart each get a window, largest first; two errors closer than a

@@ -336,7 +336,14 @@ double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, W
   const double delta_start = op.delta();
   const std::vector<Window> windows =
       windows_at_largest_residuals(op, P, f, search.half_width, search.count);
-  local_newton_step(op, P, f, windows);
+  try {
+    local_newton_step(op, P, f, windows);
+  } catch (const std::runtime_error&) {
+    // A singular window (an iterate that has blown up; no flow and no
+    // elastic term around a point) leaves P as it was: no step.  The caller
+    // records its cycle with the residual it had, and judges it.
+    return residual;
+  }
   const double after = global.settle();
   if (after <= residual) return after;
   P = P_start;

@@ -62,7 +62,8 @@ struct LocalNewtonStep {
 /// make the pressure negative (a few passes settle the active set), and adds
 /// dP.  A window whose largest pressure-scaled residual the combined step
 /// raises is put back as it was.  Leaves the operator's coefficients up to date
-/// for P.
+/// for P.  Throws std::runtime_error, with P unchanged, where a window's
+/// Jacobian is singular.
 LocalNewtonStep local_newton_step(ReynoldsOperator& op, Field& P, const Field& f,
                                   const std::vector<Window>& windows);
 
@@ -106,8 +107,9 @@ struct GlobalUnknown {
 /// residual, but together, with the global unknown their force implies, they
 /// can leave the grid worse (in the collapse of M = 20, L = 20 on 129^2 a
 /// step at 9.3e-5 went to 8.7e-4); then P and the global unknown are put
-/// back.  Returns the measure after, and leaves the operator's coefficients
-/// up to date for P.
+/// back.  Where a window's Jacobian is singular (an iterate that has blown
+/// up, say) no step is taken.  Returns the measure after, and leaves the
+/// operator's coefficients up to date for P.
 double newton_on_worst_windows(ReynoldsOperator& op, Field& P, const Field& f, WindowSearch search,
                                double residual, const GlobalUnknown& global);
 

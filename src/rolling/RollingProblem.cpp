@@ -141,11 +141,10 @@ struct RollingProblem::Impl {
                    const CycleMonitor& monitor);
   /// One cycle on `level` and its record, numbered after the level's earlier cycles.
   RollingCycle cycle_on(int level);
-  /// One local Newton step on the finest grid after the cycle of `record`
-  /// (H0 stays: the next cycle balances the force); returns the residual
-  /// measure after it.  Throws StageDiverged where a window's Jacobian is
-  /// singular (an iterate that has blown up).
-  double newton_on_worst_windows(const RollingCycle& record);
+  /// One local Newton step on the finest grid after a cycle that left it at
+  /// `residual` (H0 stays: the next cycle balances the force); returns the
+  /// residual measure after it.
+  double newton_on_worst_windows(double residual);
   /// converge_on with retries at more damping when the stage diverges.
   bool solve_stage(int level, int cycles, const CycleMonitor& monitor);
   void update_h0(int level);
@@ -228,7 +227,7 @@ RollingCycle RollingProblem::Impl::cycle_on(int level) {
   record.cycle = ++level_cycles;
   record.residual = solver->residual_norm(level);
   if (level == 0 && cfg.local_newton_half_width > 0 && record.residual >= cfg.tolerance)
-    record.residual = newton_on_worst_windows(record);
+    record.residual = newton_on_worst_windows(record.residual);
   record.force_error = (op.force(solver->solution(level)) - kRollingLoad) / kRollingLoad;
   record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
   record.H0 = h0;
@@ -237,20 +236,14 @@ RollingCycle RollingProblem::Impl::cycle_on(int level) {
   return record;
 }
 
-double RollingProblem::Impl::newton_on_worst_windows(const RollingCycle& record) {
+double RollingProblem::Impl::newton_on_worst_windows(double residual) {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   const reynolds::GlobalUnknown fixed_h0{[&] { return solver->residual_norm(0); },
                                          [&](double H0) { set_h0(H0); }};
-  try {
-    return reynolds::newton_on_worst_windows(
-        fine, solver->solution(0), solver->rhs(0),
-        reynolds::window_search(cfg.local_newton_half_width, cfg.local_newton_windows, fine.grid()),
-        record.residual, fixed_h0);
-  } catch (const std::runtime_error& e) {
-    throw StageDiverged(
-        fmt::format("the multigrid iteration diverged on the {}^2 grid at cycle {} ({})",
-                    record.points, record.cycle, e.what()));
-  }
+  return reynolds::newton_on_worst_windows(
+      fine, solver->solution(0), solver->rhs(0),
+      reynolds::window_search(cfg.local_newton_half_width, cfg.local_newton_windows, fine.grid()),
+      residual, fixed_h0);
 }
 
 bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall, Iterate& best,
