@@ -225,30 +225,52 @@ void in_three_stages(int parts, RowsIn&& rows_in, Columns&& columns, RowsOut&& r
   }
 }
 
+/// Calls chunk(first, count) for the chunks of at most `size` of the range r.
+template <class Chunk>
+void by_chunks_of(int size, Share r, Chunk&& chunk) {
+  for (int first = r.begin; first < r.end; first += size)
+    chunk(first, std::min(size, r.end - first));
+}
+
 /// The full grid: r2c transforms of the n data rows (period m), c2c
 /// transforms of the m/2 + 1 spectral columns, product with the kernel
-/// spectrum, and back.  Skipping the all-zero padding rows saves about a
-/// quarter of the work of a plain 2-D transform.
+/// spectrum, and back.  The all-zero padding rows are never transformed
+/// along X, and along Y they are zeros in a strip: about a quarter of the
+/// work of a plain 2-D transform is skipped.  The columns go through the
+/// transforms along Y a few at a time, copied into a contiguous strip, as
+/// the mirrored grid's do: transforms down columns of the n x mc spectrum
+/// (a stride of 16 kB on 1025^2) took twice the time per point of the
+/// mirrored grid's (docs/performance.md).
 struct FullImpl final : FftDeformation::Impl {
+  /// Spectral columns per strip: 8 columns of 2048 complex values (1025^2)
+  /// are 256 kB, which stay in the L2 cache through both transforms.
+  static constexpr int kColumnChunk = 8;
+  /// One batch's strip of columns and the transforms of 1..kColumnChunk of
+  /// them (contiguous, period m each).
+  struct Strip {
+    FftwBuffer<fftw_complex> values;      // kColumnChunk columns of m
+    std::vector<Plan> forward, backward;  // [count - 1]
+  };
   int n;      // grid points per side
   int mc;     // m/2 + 1: complex columns of the r2c transform, also the kernel quarter size
   int parts;  // the transforms are cut into this many independent batches
   FftwBuffer<double> real;            // n rows of m: P in, W out
-  FftwBuffer<fftw_complex> spectrum;  // m rows of mc
-  FftwBuffer<double> kernel_hat;      // mc rows of mc: the kernel spectrum, ky <= m/2
-  // One plan per batch: rows of the real array, columns of the spectrum.  A
-  // 2-D transform is a batch of 1-D transforms along each axis, so the
-  // batches of one axis are independent and run on the threads of the
+  FftwBuffer<fftw_complex> spectrum;  // n rows of mc: the data rows' transforms
+  FftwBuffer<double> kernel_hat;      // mc rows of mc: the kernel spectrum (symmetric)
+  // One plan per batch for the rows of the real array; the strips' plans per
+  // batch.  A 2-D transform is a batch of 1-D transforms along each axis, so
+  // the batches of one axis are independent and run on the threads of the
   // calling OpenMP team (FFTW's own threads cost more than they save at these
   // sizes: docs/performance.md).
-  std::vector<Plan> rows_forward, cols_forward, cols_backward, rows_backward;
+  std::vector<Plan> rows_forward, rows_backward;
+  std::vector<Strip> strips;
 
   FullImpl(const KernelTable& K, FftPlanning planning)
       : n(K.n()),
         mc(padded_period(2 * (K.n() - 1)) / 2 + 1),
         parts(batch_count(K.n())),
         real(fftw_buffer<double>(static_cast<std::size_t>(n) * 2 * (mc - 1))),
-        spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(2 * (mc - 1)) * mc)),
+        spectrum(fftw_buffer<fftw_complex>(static_cast<std::size_t>(n) * mc)),
         kernel_hat(kernel_spectrum(K, 2 * (mc - 1))) {
     m = 2 * (mc - 1);
     const unsigned flags = planner_flags(planning);
@@ -266,32 +288,68 @@ struct FullImpl final : FftDeformation::Impl {
         return fftw_plan_many_dft_c2r(1, &m, rows, row_out, nullptr, 1, mc, row_in, nullptr, 1, m,
                                       flags);
       }));
-      // Columns [k.begin, k.end): complex transforms of length m, in place, element stride mc.
-      const Share k = share(mc, parts, c);
-      fftw_complex* col = spectrum.get() + k.begin;
-      const int cols = k.end - k.begin;
-      cols_forward.push_back(make_plan([&] {
-        return fftw_plan_many_dft(1, &m, cols, col, nullptr, mc, 1, col, nullptr, mc, 1,
-                                  FFTW_FORWARD, flags);
+      strips.push_back(make_strip(flags));
+    }
+  }
+
+  [[nodiscard]] Strip make_strip(unsigned flags) const {
+    Strip strip{fftw_buffer<fftw_complex>(static_cast<std::size_t>(kColumnChunk) * m), {}, {}};
+    fftw_complex* v = strip.values.get();
+    for (int count = 1; count <= kColumnChunk; ++count) {
+      strip.forward.push_back(make_plan([&] {
+        return fftw_plan_many_dft(1, &m, count, v, nullptr, 1, m, v, nullptr, 1, m, FFTW_FORWARD,
+                                  flags);
       }));
-      cols_backward.push_back(make_plan([&] {
-        return fftw_plan_many_dft(1, &m, cols, col, nullptr, mc, 1, col, nullptr, mc, 1,
-                                  FFTW_BACKWARD, flags);
+      strip.backward.push_back(make_plan([&] {
+        return fftw_plan_many_dft(1, &m, count, v, nullptr, 1, m, v, nullptr, 1, m, FFTW_BACKWARD,
+                                  flags);
       }));
     }
+    return strip;
+  }
+
+  /// Columns first .. first + count - 1 of the spectrum along Y: into the
+  /// strip (zero beyond the n data rows), forward, product with the kernel
+  /// spectrum (even in ky, and symmetric: row kx holds the column kx), inverse,
+  /// and the n data rows back (the inverse along X needs no others).
+  void columns_along_y(Strip& strip, int first, int count) {
+    const auto um = static_cast<std::size_t>(m);
+    const auto umc = static_cast<std::size_t>(mc);
+    const auto un = static_cast<std::size_t>(n);
+    const auto uc = static_cast<std::size_t>(count);
+    fftw_complex* s = spectrum.get() + first;
+    fftw_complex* v = strip.values.get();
+    for (std::size_t ky = 0; ky < un; ++ky)
+      for (std::size_t col = 0; col < uc; ++col) {
+        v[col * um + ky][0] = s[ky * umc + col][0];
+        v[col * um + ky][1] = s[ky * umc + col][1];
+      }
+    for (std::size_t col = 0; col < uc; ++col)
+      std::memset(static_cast<void*>(v + col * um + un), 0, sizeof(fftw_complex) * (um - un));
+    fftw_execute(strip.forward[uc - 1].get());
+    for (std::size_t col = 0; col < uc; ++col) {
+      const double* kernel_row = kernel_hat.get() + (first + col) * umc;
+      fftw_complex* column = v + col * um;
+      for (std::size_t ky = 0; ky < um; ++ky) {
+        const double k = kernel_row[std::min(ky, um - ky)];
+        column[ky][0] *= k;
+        column[ky][1] *= k;
+      }
+    }
+    fftw_execute(strip.backward[uc - 1].get());
+    for (std::size_t ky = 0; ky < un; ++ky)
+      for (std::size_t col = 0; col < uc; ++col) {
+        s[ky * umc + col][0] = v[col * um + ky][0];
+        s[ky * umc + col][1] = v[col * um + ky][1];
+      }
   }
 
   void apply(const double* p, double* w) override {
     const auto un = static_cast<std::size_t>(n);
     const auto um = static_cast<std::size_t>(m);
-    const auto umc = static_cast<std::size_t>(mc);
     double* r = real.get();
-    fftw_complex* s = spectrum.get();
-    const double* kh = kernel_hat.get();
-
     // P into the first n columns of the batch's data rows, zero padding
-    // after, then their real transforms; the batch also clears its share of
-    // the spectrum's padding rows (overwritten by the previous inverse).
+    // after, then their real transforms.
     const auto rows_in = [&](int c) {
       const Share rows = share(n, parts, c);
       for (auto j = static_cast<std::size_t>(rows.begin); j < static_cast<std::size_t>(rows.end);
@@ -299,26 +357,11 @@ struct FullImpl final : FftDeformation::Impl {
         std::copy_n(p + j * un, un, r + j * um);
         std::fill(r + j * um + un, r + (j + 1) * um, 0.0);
       }
-      const Share padding = share(m - n, parts, c);
-      std::memset(static_cast<void*>(s + (un + padding.begin) * umc), 0,
-                  sizeof(fftw_complex) * umc * (padding.end - padding.begin));
       fftw_execute(rows_forward[c].get());
     };
-    // The batch's columns: forward, product with the kernel spectrum (even in
-    // ky), inverse.
     const auto columns = [&](int c) {
-      fftw_execute(cols_forward[c].get());
-      const Share cols = share(mc, parts, c);
-      for (std::size_t ky = 0; ky < um; ++ky) {
-        const double* k = kh + std::min(ky, um - ky) * umc;
-        fftw_complex* row = s + ky * umc;
-        for (auto kx = static_cast<std::size_t>(cols.begin);
-             kx < static_cast<std::size_t>(cols.end); ++kx) {
-          row[kx][0] *= k[kx];
-          row[kx][1] *= k[kx];
-        }
-      }
-      fftw_execute(cols_backward[c].get());
+      by_chunks_of(kColumnChunk, share(mc, parts, c),
+                   [&](int first, int count) { columns_along_y(strips[c], first, count); });
     };
     // Inverse real transforms, W out of the first n columns.
     const auto rows_out = [&](int c) {
@@ -537,14 +580,6 @@ struct MirroredImpl final : FftDeformation::Impl {
                          fftw_buffer<double>(static_cast<std::size_t>(DctI::kChunk) * dist)});
   }
 
-  /// Calls chunk(first, count) for the chunks of at most DctI::kChunk of the
-  /// range r.
-  template <class Chunk>
-  static void by_chunks(Share r, Chunk&& chunk) {
-    for (int first = r.begin; first < r.end; first += DctI::kChunk)
-      chunk(first, std::min(DctI::kChunk, r.end - first));
-  }
-
   /// The box [0, columns) x [0, rows) of the quadrant beyond which P is zero.
   struct Extent {
     int columns, rows;
@@ -584,7 +619,7 @@ struct MirroredImpl final : FftDeformation::Impl {
     // Along X: the rows of P (zero beyond their first extent.columns values),
     // transformed into d; the rows beyond extent.rows are not needed.
     const auto rows_in = [&](int c) {
-      by_chunks(share(n, parts, c), [&](int first, int count) {
+      by_chunks_of(DctI::kChunk, share(n, parts, c), [&](int first, int count) {
         if (first >= extent.rows) return;
         batches[c].dct.apply_padded(p + first * un, n, extent.columns, d + first * ud, count);
       });
@@ -595,7 +630,7 @@ struct MirroredImpl final : FftDeformation::Impl {
     // to the scale), and the first n values transposed back.
     const auto columns = [&](int c) {
       double* strip = batches[c].strip.get();
-      by_chunks(share(mc, parts, c), [&](int first, int count) {
+      by_chunks_of(DctI::kChunk, share(mc, parts, c), [&](int first, int count) {
         transpose(d + first, dist, strip, dist, extent.rows, count);
         batches[c].dct.apply_padded(strip, dist, extent.rows, strip, count);
         for (std::size_t kx = 0; kx < static_cast<std::size_t>(count); ++kx) {
@@ -609,7 +644,7 @@ struct MirroredImpl final : FftDeformation::Impl {
     };
     // Along X: the inverse transforms, W out of the first n values.
     const auto rows_out = [&](int c) {
-      by_chunks(share(n, parts, c), [&](int first, int count) {
+      by_chunks_of(DctI::kChunk, share(n, parts, c), [&](int first, int count) {
         batches[c].dct.apply(d + first * ud, count);
         for (auto j = static_cast<std::size_t>(first); j < static_cast<std::size_t>(first + count);
              ++j)
