@@ -427,11 +427,11 @@ TEST(LocalNewton, RepairsALocalErrorInsideItsWindowOnly) {
 }
 
 // A window whose Jacobian is singular gets no step: P stays as it was and the
-// caller gets the residual it passed, to record its cycle and judge it (the
-// rolling contact lost such a cycle, from an iterate that had blown up, from
-// its history, and numbered the next one after it).  Here rigid bodies that
-// overlap (H < 0 over the contact: no flow, and no elastic term) make every
-// row of the window zero.
+// caller gets the residual it passed, to record its cycle and judge it (a
+// rolling run whose iterate had blown up lost such a cycle from its history,
+// and numbered the next one after it).  Here rigid bodies that overlap
+// (H < 0 over the contact: no flow, and no elastic term) make every row of
+// the window zero.
 TEST(LocalNewton, ASingularWindowGetsNoStep) {
   const Grid2D grid(33, 1.5);
   Lubricant lubricant;
