@@ -470,6 +470,59 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
   EXPECT_NE(message.find("use more points"), std::string::npos) << message;
 }
 
+TEST(EdgeLoad, AUniformPressureGivesTheBandsShareOfTheDomain) {
+  // The band within a tenth of the side from the inlet and the two side
+  // edges is all but 0.9 x 0.8 of the domain; on 1025^2 it is 103 columns
+  // and 2 x 103 rows: 1 - 922 x 819 / 1025^2 = 0.2813.
+  const Grid2D grid(1025, 3.0, false);
+  const Field uniform(grid, 1.0);
+  EXPECT_NEAR(edge_load_share(grid, uniform), 0.28, 0.002);
+  // A pressure confined to the centre puts nothing there; one in a single
+  // inlet-edge column puts everything there; the outlet edge is not counted.
+  Field centre(grid, 0.0), inlet(grid, 0.0), outlet(grid, 0.0);
+  centre(512, 512) = 1.0;
+  inlet(5, 512) = 1.0;
+  outlet(1020, 512) = 1.0;
+  EXPECT_EQ(edge_load_share(grid, centre), 0.0);
+  EXPECT_EQ(edge_load_share(grid, inlet), 1.0);
+  EXPECT_EQ(edge_load_share(grid, outlet), 0.0);
+}
+
+TEST(Rolling, WarnsWhenTheLoadReachesTheDomainEdges) {
+  // At M = 2, L = 0 the pressure builds up far upstream: 2 % of the load on
+  // 65^2 lies in the edge band, and the film is the domain's: doubling the
+  // domain at the same mesh raises Hc by half (docs/validation.md, "The
+  // load at the domain's edges").  The default case stays below 1 %.
+  const RollingResult low_m = solve(rolling_case(2, 0, 65));
+  EXPECT_GT(low_m.edge_load, 0.01);
+  ASSERT_EQ(low_m.warnings.size(), 1u);
+  EXPECT_NE(low_m.warnings[0].find("extend it (grid.x_min"), std::string::npos)
+      << low_m.warnings[0];
+  RollingConfig doubled = rolling_case(2, 0, 129);
+  doubled.x_min *= 2.0;
+  doubled.x_max *= 2.0;
+  doubled.y_min *= 2.0;
+  doubled.y_max *= 2.0;
+  const RollingResult wide = solve(doubled);
+  EXPECT_LT(wide.edge_load, low_m.edge_load);
+  EXPECT_GT(wide.Hc / low_m.Hc, 1.3);
+  const RollingResult usual = solve(rolling_case(100, 10, 65));
+  EXPECT_LT(usual.edge_load, 0.01);
+  EXPECT_TRUE(usual.warnings.empty());
+}
+
+TEST(RollingCli, PrintsAndRecordsTheWarnings) {
+  const testing::TempDir dir("rolling-warning");
+  const auto r =
+      testing::ehlsim("rolling --set case.M=2 --set case.L=0 --set grid.points=33 --out " +
+                      testing::quote((dir / "run").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("ehlsim: warning: "), std::string::npos) << r.err;
+  const nlohmann::json run = nlohmann::json::parse(testing::read_file(dir / "run" / "run.json"));
+  EXPECT_GT(run["results"]["edge_load_share"].get<double>(), 0.01);
+  ASSERT_EQ(run["results"]["warnings"].size(), 1u);
+}
+
 TEST(RollingCli, WritesTheRunDirectory) {
   const testing::TempDir dir("rolling-cli");
   const auto r = testing::ehlsim("rolling --quiet --set grid.points=33 --out " +

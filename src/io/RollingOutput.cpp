@@ -59,7 +59,9 @@ nlohmann::json rolling_results_json(const RollingConfig& c, const RollingResult&
           {"residual", r.residual},
           {"force_error", r.force_error},
           {"cycles", r.cycles},
-          {"work_units", r.work}};
+          {"work_units", r.work},
+          {"edge_load_share", r.edge_load},
+          {"warnings", r.warnings}};
 }
 
 void write_rolling_run(const std::filesystem::path& dir, const RollingConfig& config,

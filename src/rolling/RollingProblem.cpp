@@ -85,6 +85,15 @@ constexpr double kMinH0Step = 0.25;
 constexpr int kH0StepRegrowCycles = 3;
 constexpr double kForceLeftFactor = 10.0;
 
+/// A result whose edge band (kEdgeBand) carries more than this share of the
+/// load gets a warning: its film depends on the domain.  Hc when the default
+/// domain is doubled in both directions at the same mesh (129^2 against
+/// 257^2; docs/validation.md, "The load at the domain's edges"): M = 2,
+/// L = 0 (2.7 % in the band) +56 %; M = 5, L = 0 (1.2 %) +6 %; M = 3, L = 10
+/// (1.6 %) +2.1 %; M = 5, L = 10 (0.97 %) +1.4 %; M = 10, L = 5 (0.50 %)
+/// +0.6 % on a domain four times the default's.
+constexpr double kEdgeLoadWarning = 0.01;
+
 /// Thrown by a stage whose iteration diverged (caught by the retries).
 struct StageDiverged : RollingFailure {
   using RollingFailure::RollingFailure;
@@ -343,7 +352,27 @@ RollingResult RollingProblem::Impl::result() const {
   r.force_error = history.back().force_error;
   r.cycles = history.back().cycle;  // on the finest grid, over all its attempts
   r.work = hierarchy.work_units();
+  r.edge_load = edge_load_share(grid, r.P);
+  if (r.edge_load > kEdgeLoadWarning)
+    r.warnings.push_back(fmt::format(
+        "{:.1f} % of the load lies within a tenth of the domain's side from its inlet and side "
+        "edges (more than {:g} %): the film depends on the domain; extend it (grid.x_min, "
+        "grid.y_min, grid.y_max) and compare",
+        100.0 * r.edge_load, 100.0 * kEdgeLoadWarning));
   return r;
+}
+
+double edge_load_share(const Grid2D& grid, const Field& P) {
+  const int band = static_cast<int>(std::floor(kEdgeBand * (grid.n - 1)));
+  double edge = 0.0, total = 0.0;
+  for (int j = 0; j < grid.n; ++j) {
+    for (int i = 0; i < grid.n; ++i) {
+      const bool in_band = std::min({i, j, grid.n - 1 - j}) <= band;
+      total += P(i, j);
+      if (in_band) edge += P(i, j);
+    }
+  }
+  return total > 0.0 ? edge / total : 0.0;
 }
 
 RollingProblem::RollingProblem(const RollingConfig& config)

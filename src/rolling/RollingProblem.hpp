@@ -10,6 +10,7 @@
 #include <memory>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "grid/Grid.hpp"
@@ -36,8 +37,12 @@ struct RollingResult {
   double P_max = 0.0, X_P_max = 0.0, Y_P_max = 0.0;  ///< maximum pressure and its position
   double H0 = 0.0;
   double residual = 0.0, force_error = 0.0;
-  int cycles = 0;     ///< on the finest grid
-  double work = 0.0;  ///< deformation evaluations, in finest-grid units
+  int cycles = 0;          ///< on the finest grid
+  double work = 0.0;       ///< deformation evaluations, in finest-grid units
+  double edge_load = 0.0;  ///< edge_load_share of P
+  /// What the user should know about the result (the load reaching the
+  /// domain's inlet and side edges), one line each.
+  std::vector<std::string> warnings;
   std::vector<RollingCycle> history;
 };
 
@@ -68,5 +73,18 @@ class RollingProblem {
 
 /// The force balance of the Hertz units: Int P dX dY = 2 pi / 3.
 inline constexpr double kRollingLoad = 2.0 * std::numbers::pi / 3.0;
+
+/// Points within this fraction of the domain's side from its inlet edge
+/// (X = x_min) or its side edges (Y = y_min, y_max) make its edge band
+/// (edge_load_share).
+inline constexpr double kEdgeBand = 0.1;
+
+/// The share of the load sum P that the points of the edge band carry: 0.28
+/// for a uniform P (all but 0.9 x 0.8 of the domain).  A pressure that
+/// reaches the edges starves the contact of the load that the boundary
+/// condition P = 0 takes away.  The outlet edge is left out: past the
+/// cavitation boundary the pressure is zero anyway, and on the default domain
+/// (x_max = 1.5) its band would hold the edge of the Hertz contact.
+[[nodiscard]] double edge_load_share(const Grid2D& grid, const Field& P);
 
 }  // namespace ehlsim
