@@ -511,6 +511,17 @@ TEST(Rolling, WarnsWhenTheLoadReachesTheDomainEdges) {
   EXPECT_TRUE(usual.warnings.empty());
 }
 
+TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
+  // M = 1, L = 0: the film grows with the domain (Hc 2.4, 6.5 and 11.9 Moes
+  // on the default domain and on two and four times it; the formula 41.6),
+  // and on the default one the iteration fails (on 33^2 it diverges, on
+  // 65^2 it does not converge in solver.max_cycles): the reason says why.
+  const std::string message = failure_message(rolling_case(1, 0, 33));
+  EXPECT_NE(message.find("diverged"), std::string::npos) << message;
+  EXPECT_NE(message.find("the domain is too small for this case (grid.x_min"), std::string::npos)
+      << message;
+}
+
 TEST(RollingCli, PrintsAndRecordsTheWarnings) {
   const testing::TempDir dir("rolling-warning");
   const auto r =
