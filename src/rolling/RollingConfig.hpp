@@ -60,13 +60,13 @@ struct RollingConfig : SolverSettings {
   /// the discretisation error (Hc moves 0.7 % from 257^2 to 513^2).  A rigid
   /// Barus contact near its bound on alpha_bar balances its force at 0.96
   /// per cycle (M = 10, L = 0.4 on 129^2: force error 1e-4 after 100 cycles,
-  /// converged in 121).  max_cycles bounds the
-  /// finest-grid cycles of all attempts: at L = 20 the damped retries
-  /// converge at 0.85-0.95 per cycle (the outlet spike), and the cycles move
-  /// by tens with the last bits of a run (M = 20 on 513^2: 41, 80 and 100
-  /// cycles at three revisions of the same solver; M = 10: 69, more than 100,
-  /// 70), so 200 leaves them room.  A case that cannot converge (L = 20 on
-  /// 1025^2) fails after about a second per cycle there.
+  /// converged in 121).  max_cycles bounds the finest-grid cycles of all
+  /// attempts: at L = 20 the damped retries converge at 0.85-0.95 per cycle
+  /// (the outlet spike), and the cycles move by tens with the last bits of a
+  /// run (M = 20 on 513^2: 41, 80 and 100 cycles at three revisions of the
+  /// same solver; M = 10: 69, more than 100, 70), so 200 leaves them room.
+  /// A case that cannot converge (L = 20 on 1025^2) fails after about half a
+  /// second per cycle there on two threads.
   RollingConfig() {
     tolerance = 1e-5;
     max_cycles = 200;
