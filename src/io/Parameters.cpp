@@ -362,7 +362,10 @@ std::vector<ParameterSpec> build_registry() {
   add_lubricant_parameters(r);
   add_body_and_grid_points_parameters(r, kDefaultGridPoints);
   r.push_back(real("grid.half_width", kDefaultHalfWidth, "", above(0), kUnbounded, "",
-                   "the domain is [-half_width, half_width]^2 (unit: a*)"));
+                   "the domain is [-half_width, half_width]^2 (unit: a*); 1.5 is the paper's, "
+                   "which takes part of the approach's squeeze film away: on [-3, 3]^2 the "
+                   "rebound speed is 2 % lower at M = 100 and 31 % at M = 10 (widen it at the "
+                   "same mesh, more points, for the flooded contact)"));
   add_time_parameters(r);
   add_surface_parameters(r);
   add_output_parameters(r);
