@@ -251,8 +251,9 @@ TEST(Rolling, CentralFilmConvergesAtLowMAndL20On513) {
   // tolerance from cycle 90 on, but the H0 step, halved to a quarter in the
   // first cycles, left the force error falling from 1.2e-4 to 1.9e-5 over
   // the last 30 of the 100 cycles allowed then.  The step now grows back
-  // while the force error keeps its sign (70 cycles), and solver.max_cycles
-  // is 200.  The film agrees with 257^2's to the discretisation error.
+  // when only the force is left to converge (79 cycles), and
+  // solver.max_cycles is 200.  The film agrees with 257^2's to the
+  // discretisation error.
   const RollingConfig fine = rolling_case(10, 20, 513);
   const RollingResult r = solve(fine);
   EXPECT_LT(r.residual, fine.tolerance);
