@@ -33,11 +33,12 @@ class InterruptGuard {
   /// The first of the signals received since construction, 0 while none.
   [[nodiscard]] static int received();
 
-  /// Ignores SIGINT, SIGTERM and SIGHUP for the rest of the process (in every
-  /// thread: a disposition is the process's), and the destructor no longer
-  /// restores them.  Once a command has ended, its outcome is on disk; a
-  /// signal in the moments left before the exit (exit handlers running) must
-  /// not end the process with 128 + the signal for a run that was published.
+  /// Ignores the handled signals (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) for the
+  /// rest of the process (in every thread: a disposition is the process's),
+  /// and the destructor no longer restores them.  Once a command has ended,
+  /// its outcome is on disk; a signal in the moments left before the exit
+  /// (exit handlers running) must not end the process with 128 + the signal
+  /// for a run that was published.
   void hold_until_exit();
 
  private:
