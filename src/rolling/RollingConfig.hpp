@@ -63,8 +63,9 @@ struct RollingConfig : SolverSettings {
   /// converged in 121).  max_cycles bounds the finest-grid cycles of all
   /// attempts: at L = 20 the damped retries converge at 0.85-0.95 per cycle
   /// (the outlet spike), and the cycles move by tens with the last bits of a
-  /// run (M = 20 on 513^2: 41, 80 and 100 cycles at three revisions of the
-  /// same solver; M = 10: 69, more than 100, 70), so 200 leaves them room.
+  /// run (M = 20 on 513^2: 41 and 80 cycles at two revisions of the same
+  /// solver, 100 with a trial form of the H0 step's regrowth; M = 10: 69,
+  /// more than 100, 79), so 200 leaves them room.
   /// A case that cannot converge (L = 20 on 1025^2) fails after about half a
   /// second per cycle there on two threads.
   RollingConfig() {
