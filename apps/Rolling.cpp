@@ -93,9 +93,7 @@ int run_rolling(const RollingOptions& options) {
         result.Hc, hertz_to_moes_film(result.Hc, config.M),
         nvm_central_film(config.M, config.L, config.D), result.Hm, result.X_Hm, result.P_max,
         result.cycles, wall, options.out_dir);
-    std::fflush(stdout);  // the warnings after the summary, also when both go to one pipe
-    for (const std::string& warning : result.warnings)
-      std::fprintf(stderr, "ehlsim: warning: %s\n", warning.c_str());
+    cli::print_warnings(result.warnings);
   }
   return cli::kExitOk;
 }

@@ -47,6 +47,7 @@
 #include "io/RollingParameters.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
+#include "io/RunOutput.hpp"
 
 extern char** environ;
 
@@ -67,6 +68,12 @@ void print_error(std::string_view message) {
   std::replace(line.begin(), line.end(), '\n', ' ');
   std::replace(line.begin(), line.end(), '\r', ' ');
   std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  std::fflush(stdout);
+  for (const std::string& warning : warnings)
+    std::fprintf(stderr, "ehlsim: warning: %s\n", warning.c_str());
 }
 
 CLI::Validator not_empty(const std::string& what) {
@@ -287,6 +294,16 @@ int wait_forwarding(pid_t pid) {
   return exit_code_of(status);
 }
 
+/// The warnings in the run.json of a finished case (none if it cannot be read).
+std::vector<std::string> case_warnings(const Case& c) {
+  try {
+    const nlohmann::json run = read_run_json(c.dir / RunOutput::kRunFile);
+    return run.at("results").value("warnings", std::vector<std::string>{});
+  } catch (const std::exception&) {
+    return {};
+  }
+}
+
 /// Runs `cases`, `jobs` at a time.  The first case that completes has replaced
 /// its run directory: `stale_summary` (the study.json of an earlier study,
 /// which described the run replaced) goes then, so that no summary stands
@@ -336,6 +353,8 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       std::error_code ec;  // already gone after the first case
       fs::remove(stale_summary, ec);
       print_out("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
+      for (const std::string& warning : case_warnings(c))
+        print_out("  warning  {}: {}\n", case_label(c), warning);
     } else {
       print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
                 c.exit_code, last_line(c.log));
@@ -483,6 +502,7 @@ nlohmann::json case_summary(const Case& c) {
                           {"dir", c.dir.filename().string()},
                           {"exit_code", c.exit_code},
                           {"wall_seconds", c.wall_seconds}};
+  if (c.exit_code == cli::kExitOk) entry["warnings"] = case_warnings(c);
   if (c.exit_code == cli::kExitOk && c.command == "impact") {
     const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
     entry["snapshots"] = report.snapshots;

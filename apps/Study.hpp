@@ -34,6 +34,11 @@ void print_out(fmt::format_string<Args...> format, Args&&... args) {
 /// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
 void print_error(std::string_view message);
 
+/// "ehlsim: warning: <line>" on stderr for each of `warnings` (what a finished
+/// run's user should know about its result), after what stdout holds so far,
+/// also when both go to one pipe.
+void print_warnings(const std::vector<std::string>& warnings);
+
 /// The CONFIG argument of a command: none when empty (the built-in case).
 inline std::optional<std::filesystem::path> config_path(const std::string& argument) {
   if (argument.empty()) return std::nullopt;

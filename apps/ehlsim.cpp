@@ -228,7 +228,10 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
   run_dir.publish(config.checkpoint_every > 0 && kept.step > 0);
-  if (!options.quiet) print_summary(summary, output, run_dir.target());
+  if (!options.quiet) {
+    print_summary(summary, output, run_dir.target());
+    cli::print_warnings(summary.warnings);
+  }
   return summary;
 }
 

@@ -1034,6 +1034,7 @@ TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
     EXPECT_EQ(a.residual, b.residual) << "step " << b.step;
   }
   EXPECT_EQ(resumed.summary.impulse, full.summary.impulse);
+  EXPECT_EQ(resumed.summary.edge_impulse, full.summary.edge_impulse);
   EXPECT_EQ(resumed.summary.max_force, full.summary.max_force);  // reached before the restart
   EXPECT_EQ(resumed.summary.steps, full.summary.steps);
 

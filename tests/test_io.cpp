@@ -973,7 +973,7 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   ehlsim::testing::rewrite_attribute(path, "format_version", 2);
   EXPECT_EQ(checkpoint_error(path),
             prefix +
-                "field 'format_version' is 2; this ehlsim reads version 7 only (checkpoints "
+                "field 'format_version' is 2; this ehlsim reads version 8 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
 }
 
@@ -1459,7 +1459,7 @@ TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
 
 TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
   // The size of a global-heap object of a DIMENSION_LIST set to 1.7e18: H5HG_read's memcpy.
-  const fs::path checkpoint = library_crash("checkpoint-v7-hdf5-H5HG_read-segv.nc");
+  const fs::path checkpoint = library_crash("checkpoint-v8-hdf5-H5HG_read-segv.nc");
   expect_library_crash(untrusted_checkpoint_error(checkpoint),
                        "cannot read checkpoint '" + checkpoint.string() + "': ");
   const fs::path fields = library_crash("fields-hdf5-H5HG_read-segv.nc");

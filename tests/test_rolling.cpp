@@ -473,8 +473,8 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
 
 TEST(EdgeLoad, AUniformPressureGivesTheBandsShareOfTheDomain) {
   // The band within a tenth of the side from the inlet and the two side
-  // edges is all but 0.9 x 0.8 of the domain; on 1025^2 it is 103 columns
-  // and 2 x 103 rows: 1 - 922 x 819 / 1025^2 = 0.2813.
+  // edges is all but 0.9 x 0.8 of the domain; of the 1023^2 interior points
+  // of 1025^2, 921 x 819 lie outside it: 1 - 921 x 819 / 1023^2 = 0.2792.
   const Grid2D grid(1025, 3.0, false);
   const Field uniform(grid, 1.0);
   EXPECT_NEAR(edge_load_share(grid, uniform), 0.28, 0.002);
@@ -490,7 +490,7 @@ TEST(EdgeLoad, AUniformPressureGivesTheBandsShareOfTheDomain) {
 }
 
 TEST(Rolling, WarnsWhenTheLoadReachesTheDomainEdges) {
-  // At M = 2, L = 0 the pressure builds up far upstream: 2 % of the load on
+  // At M = 2, L = 0 the pressure builds up far upstream: 3 % of the load on
   // 65^2 lies in the edge band, and the film is the domain's: doubling the
   // domain at the same mesh raises Hc by half (docs/validation.md, "The
   // load at the domain's edges").  The default case stays below 1 %.

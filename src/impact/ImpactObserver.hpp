@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "grid/Grid.hpp"
 
@@ -76,6 +77,10 @@ struct RunSummary {
   double T_min_h_center = 0.0;
   double initial_force = 0.0;  ///< film force at T = 0 (quasi-static squeeze film)
   double impulse = 0.0;        ///< (3 / (2 pi)) Int force dT, from T = 0
+  /// The same of the force of the edge band (grid/EdgeBand.hpp): the momentum
+  /// [m v0] that the film near the domain's edges took from the ball, where
+  /// the boundary condition P = 0 cuts the squeeze film short.
+  double edge_impulse = 0.0;
   /// Elastic energy of the solids under the film at T = 0 [m v0^2] (RunGuards.hpp).
   double initial_elastic_energy = 0.0;
   double wall_seconds = 0.0;
@@ -83,6 +88,8 @@ struct RunSummary {
   int retried_steps = 0;      ///< steps solved again with more damping after diverging
   /// Kinetic plus elastic energy left at the end, over the impact energy V0^2 / 2.
   double final_energy = std::numeric_limits<double>::quiet_NaN();
+  /// What the user should know about the result, one line each (domain_warnings).
+  std::vector<std::string> warnings;
 };
 
 class ImpactObserver {

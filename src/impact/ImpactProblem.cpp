@@ -18,6 +18,7 @@
 
 #include "dynamics/Bdf.hpp"
 #include "dynamics/Newmark.hpp"
+#include "grid/EdgeBand.hpp"
 #include "impact/AttemptPolicy.hpp"
 #include "impact/PressurePredictor.hpp"
 #include "impact/RunGuards.hpp"
@@ -136,6 +137,7 @@ struct ImpactProblem::Impl {
   struct RunProgress {
     BallState ball;
     double force_now = 0.0, force_before = 0.0;
+    double edge_force_now = 0.0;  ///< the force of the edge band at the last time level
     bool had_pressure = false;
     int first_step = 1;
     RunBounds bounds;
@@ -151,8 +153,8 @@ struct ImpactProblem::Impl {
   struct IntervalStart {
     Field P, P_before, P_before2, P_before3, rhoH_now, rhoH_old;
     BallState ball;
-    double force_now = 0.0, force_before = 0.0, delta = 0.0, level_spacing = 0.0,
-           spacing_before = 0.0, spacing_before2 = 0.0;
+    double force_now = 0.0, force_before = 0.0, edge_force_now = 0.0, delta = 0.0,
+           level_spacing = 0.0, spacing_before = 0.0, spacing_before2 = 0.0;
     int levels_done = 0;
   };
   /// Advances `run` by one time step dT (step `step`): as one implicit step,
@@ -225,6 +227,8 @@ struct ImpactProblem::Impl {
   void start_at_delta0(RunProgress& run);
   void start_from_restart(RunProgress& run);
   double elastic_energy_now() const;
+  /// Int Int P dX dY over the edge band (grid/EdgeBand.hpp).
+  double edge_force_of(const Field& P) const;
   /// Throws RunFailure when the step broke a guard; the outcome when the run ends here.
   std::optional<RunOutcome> check_step_end(const StepRecord& record, RunProgress& run);
   void add_to_summary(const StepRecord& record);
@@ -626,6 +630,7 @@ ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
           run.ball,
           run.force_now,
           run.force_before,
+          run.edge_force_now,
           hierarchy.finest().delta(),
           level_spacing,
           spacing_before,
@@ -643,6 +648,7 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
   run.ball = start.ball;
   run.force_now = start.force_now;
   run.force_before = start.force_before;
+  run.edge_force_now = start.edge_force_now;
   set_delta(start.delta);
   level_spacing = start.level_spacing;
   spacing_before = start.spacing_before;
@@ -653,6 +659,9 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
 void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, double force) {
   run.ball = newmark.advance(run.ball, force);
   summary.impulse += 0.5 * (run.force_now + force) * dt * kForceToAcceleration;
+  const double edge_force = edge_force_of(solver->solution(0));
+  summary.edge_impulse += 0.5 * (run.edge_force_now + edge_force) * dt * kForceToAcceleration;
+  run.edge_force_now = edge_force;
   run.force_before = run.force_now;
   run.force_now = force;
   const reynolds::ReynoldsOperator& fine = hierarchy.finest();
@@ -725,6 +734,7 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   summary.initial_force = initial_force;
   summary.initial_elastic_energy = elastic_energy_now();
   run.force_now = run.force_before = initial_force;
+  run.edge_force_now = edge_force_of(solver->solution(0));
   level_spacing = dT;
   spacing_before = spacing_before2 = 0.0;
   levels_done = 0;
@@ -757,7 +767,12 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   // the next one reuses them (choose_start): a restarted run computes them
   // here, outside the work of its first step, which is then the same.
   hierarchy.finest().update_coefficients(solver->solution());
+  run.edge_force_now = edge_force_of(solver->solution());
   restart.reset();
+}
+
+double ImpactProblem::Impl::edge_force_of(const Field& P) const {
+  return edge_band_sum(grid, P) * grid.h() * grid.h();
 }
 
 double ImpactProblem::Impl::elastic_energy_now() const {
@@ -834,6 +849,7 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     if (end) {
       summary.outcome = *end;
       summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);
+      summary.warnings = domain_warnings(summary, cfg);
       if (*end == RunOutcome::LiftOff) {
         summary.lifted_off = true;
         summary.T_lift_off = ball.T;

@@ -158,6 +158,17 @@ void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
       where(r), r.step, r.Delta, r.dDelta_dT, r.p_max));
 }
 
+std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c) {
+  const double share = s.edge_impulse / c.V0;
+  if (!(share > kEdgeImpulseWarning)) return {};
+  return {fmt::format(
+      "the film within a tenth of the side from the domain's edges took {:.1f} % of the impact "
+      "momentum (more than {:g} %): the boundary condition P = 0 there cuts the squeeze film "
+      "short, and the results depend on the domain; widen it (grid.half_width, and grid.points "
+      "for the same mesh) and compare",
+      100.0 * share, 100.0 * kEdgeImpulseWarning)};
+}
+
 bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {
   return 0.5 * V * V + elastic_energy <= b.rest_energy;
 }

@@ -32,7 +32,8 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// 5: attempts_failed_probes and attempts_probing (the same).
 /// 6: P_before2 (the quadratic start, impact/PressurePredictor.hpp).
 /// 7: P_before3 (the cubic start).
-constexpr int kFormatVersion = 7;
+/// 8: summary_edge_impulse (the domain's warning, impact/RunGuards.hpp).
+constexpr int kFormatVersion = 8;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -55,6 +56,7 @@ void for_each_scalar(State& s, Visit&& visit) {
   visit("summary_T_min_h_center", s.summary.T_min_h_center);
   visit("summary_initial_force", s.summary.initial_force);
   visit("summary_impulse", s.summary.impulse);
+  visit("summary_edge_impulse", s.summary.edge_impulse);
   visit("summary_T_lift_off", s.summary.T_lift_off);
   visit("summary_rebound_speed", s.summary.rebound_speed);
   visit("summary_initial_elastic_energy", s.summary.initial_elastic_energy);

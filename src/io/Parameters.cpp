@@ -365,7 +365,8 @@ std::vector<ParameterSpec> build_registry() {
                    "the domain is [-half_width, half_width]^2 (unit: a*); 1.5 is the paper's, "
                    "which takes part of the approach's squeeze film away: on [-3, 3]^2 the "
                    "rebound speed is 2 % lower at M = 100 and 31 % at M = 10 (widen it at the "
-                   "same mesh, more points, for the flooded contact)"));
+                   "same mesh, more points, for the flooded contact; a run warns when the film "
+                   "near the edges took more than 1 % of the impact momentum)"));
   add_time_parameters(r);
   add_surface_parameters(r);
   add_output_parameters(r);

@@ -19,10 +19,6 @@
 
 namespace ehlsim {
 
-namespace {
-
-constexpr std::string_view kSpikeSection = "spike.";
-
 nlohmann::json read_run_json(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) {
@@ -37,6 +33,10 @@ nlohmann::json read_run_json(const std::filesystem::path& path) {
     throw ConfigError(fmt::format("cannot read '{}': {}", path.string(), e.what()));
   }
 }
+
+namespace {
+
+constexpr std::string_view kSpikeSection = "spike.";
 
 /// The run's spike settings as overrides, then the caller's (spike.* only).
 std::vector<std::string> spike_overrides(const nlohmann::json& run,

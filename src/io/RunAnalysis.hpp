@@ -5,6 +5,7 @@
 // (io/SpikeWriter.hpp).
 #include <cstddef>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,10 @@ struct RunAnalysisReport {
 inline constexpr const char* kSpikeSnapshotsFile = "spike_snapshots.csv";
 inline constexpr const char* kSpikeProfilesFile = "spike_profiles.csv";
 inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
+
+/// The run.json at `path`.  Throws ConfigError naming the file when it is
+/// missing (the run did not finish) or not JSON.
+[[nodiscard]] nlohmann::json read_run_json(const std::filesystem::path& path);
 
 /// Analyses `run_dir` into `out_dir` (created if missing; may be `run_dir`)
 /// as one transaction (io/RunDirectory.hpp, an amendment): a reader of

@@ -121,10 +121,12 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
                   {"T_min_h_center", s.T_min_h_center},
                   {"initial_force", s.initial_force},
                   {"impulse", s.impulse},
+                  {"edge_impulse", s.edge_impulse},
                   {"initial_elastic_energy", s.initial_elastic_energy},
                   {"final_energy", number_or_null(s.final_energy)},
                   {"unconverged_steps", s.unconverged_steps},
-                  {"retried_steps", s.retried_steps}};
+                  {"retried_steps", s.retried_steps},
+                  {"warnings", s.warnings}};
   j["wall_seconds"] = wall;
   j["solver_wall_seconds"] = s.wall_seconds;
   j["files"] = {{"timeseries", kTimeSeriesFile},   {"timeseries_rows", steps_written()},

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <string>
 
+#include "grid/EdgeBand.hpp"
 #include "grid/FieldExtrema.hpp"
 #include "multigrid/Fas.hpp"
 #include "reynolds/LocalNewton.hpp"
@@ -89,8 +90,8 @@ constexpr double kForceLeftFactor = 10.0;
 /// load gets a warning: its film depends on the domain.  Hc when the default
 /// domain is doubled in both directions at the same mesh (129^2 against
 /// 257^2; docs/validation.md, "The load at the domain's edges"): M = 2,
-/// L = 0 (2.7 % in the band) +56 %; M = 5, L = 0 (1.2 %) +6 %; M = 3, L = 10
-/// (1.6 %) +2.1 %; M = 5, L = 10 (0.97 %) +1.4 %; M = 10, L = 5 (0.50 %)
+/// L = 0 (3.1 % in the band) +56 %; M = 5, L = 0 (1.3 %) +6 %; M = 3, L = 10
+/// (1.8 %) +2.1 %; M = 5, L = 10 (1.1 %) +1.4 %; M = 10, L = 5 (0.58 %)
 /// +0.6 % on a domain four times the default's.
 constexpr double kEdgeLoadWarning = 0.01;
 
@@ -385,15 +386,8 @@ RollingResult RollingProblem::Impl::result() const {
 }
 
 double edge_load_share(const Grid2D& grid, const Field& P) {
-  const int band = static_cast<int>(std::floor(kEdgeBand * (grid.n - 1)));
-  double edge = 0.0, total = 0.0;
-  for (int j = 0; j < grid.n; ++j) {
-    for (int i = 0; i < grid.n; ++i) {
-      const bool in_band = std::min({i, j, grid.n - 1 - j}) <= band;
-      total += P(i, j);
-      if (in_band) edge += P(i, j);
-    }
-  }
+  const double total = full_interior_sum(grid, [&](int i, int j) { return P(i, j); });
+  const double edge = edge_band_sum(grid, P, {.x_min = true, .x_max = false});
   return total > 0.0 ? edge / total : 0.0;
 }
 

@@ -74,13 +74,9 @@ class RollingProblem {
 /// The force balance of the Hertz units: Int P dX dY = 2 pi / 3.
 inline constexpr double kRollingLoad = 2.0 * std::numbers::pi / 3.0;
 
-/// Points within this fraction of the domain's side from its inlet edge
-/// (X = x_min) or its side edges (Y = y_min, y_max) make its edge band
-/// (edge_load_share).
-inline constexpr double kEdgeBand = 0.1;
-
-/// The share of the load sum P that the points of the edge band carry: 0.28
-/// for a uniform P (all but 0.9 x 0.8 of the domain).  A pressure that
+/// The share of the load sum P that the edge band (grid/EdgeBand.hpp) along
+/// the inlet edge (X = x_min) and the side edges (Y = y_min, y_max) carries:
+/// 0.28 for a uniform P (all but 0.9 x 0.8 of the domain).  A pressure that
 /// reaches the edges starves the contact of the load that the boundary
 /// condition P = 0 takes away.  The outlet edge is left out: past the
 /// cavitation boundary the pressure is zero anyway, and on the default domain
