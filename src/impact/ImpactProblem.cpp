@@ -143,11 +143,14 @@ struct ImpactProblem::Impl {
     RunBounds bounds;
     double energy = 0.0;  ///< kinetic + elastic energy after the last step
   };
-  /// The force at the new time level, and whether an attempt converged (else
-  /// the best iterate of all attempts is the solution).
+  /// The force at the new time level, whether an attempt converged (else
+  /// the best iterate of all attempts is the solution), and the residual and
+  /// cycles of the iterate kept.
   struct StepSolve {
     double force = 0.0;
     bool converged = false;
+    double residual = 0.0;
+    int cycles = 0;
   };
   /// What a time level starts from: enough to solve its interval again, in halves.
   struct IntervalStart {
@@ -167,16 +170,16 @@ struct ImpactProblem::Impl {
   /// The best iterate of an interval solved whole, kept should its halves do worse.
   struct WholeInterval {
     Field P;
-    double delta = 0.0, force = 0.0, residual = 0.0;
-    int cycles = 0;
+    double delta = 0.0;
+    StepSolve solved;
   };
   struct StepTally;
   void keep_whole_interval(const WholeInterval& whole, const IntervalStart& start,
                            const StepTally& before, RunProgress& run, double dt);
   IntervalStart interval_start(const RunProgress& run) const;
   void restore_interval_start(const IntervalStart& start, RunProgress& run);
-  /// Moves the ball and the time levels to the solution of the interval dt.
-  void accept_interval(RunProgress& run, double dt, double force);
+  /// Moves the ball and the time levels to the solution `solved` of the interval dt.
+  void accept_interval(RunProgress& run, double dt, const StepSolve& solved);
   /// Solves the interval dt from the last time level of `run`.  Throws if
   /// every attempt diverged.
   StepSolve solve_time_step(int step, const RunProgress& run, double dt);
@@ -197,8 +200,8 @@ struct ImpactProblem::Impl {
   [[nodiscard]] std::size_t earlier_levels_a_step_apart(double omega) const;
   /// P_before3 <- P_before2 <- P_before; P_before is then free for the last level.
   void shift_earlier_levels();
-  /// The attempts of one step from the chosen start.
-  StepSolve solve_with_retries(int step, const BallState& ball);
+  /// The attempts of one step from the chosen start, whose residual is `start_residual`.
+  StepSolve solve_with_retries(int step, const BallState& ball, double start_residual);
   /// The iterate with the smallest residual of a step's attempts so far.
   struct BestIterate {
     Field P;
@@ -206,11 +209,19 @@ struct ImpactProblem::Impl {
     double delta = 0.0;
     int cycles = 0;
   };
+  /// How an attempt ended: below the tolerance or not, and its last iterate's
+  /// residual and cycles.
+  struct AttemptEnd {
+    bool converged = false;
+    double residual = 0.0;
+    int cycles = 0;
+  };
   /// The multigrid cycles of one attempt of a step from the current
-  /// approximation, as long as judge_attempt lets them go on; false when the
-  /// attempt ended above the tolerance.  Offers every iterate to `best`.
-  /// Throws on divergence.
-  bool iterate_time_step(const CycleRecord& attempt, const BallState& ball, BestIterate& best);
+  /// approximation, whose residual is `attempt.residual`, as long as
+  /// judge_attempt lets them go on.  Offers every iterate to `best`.  Throws
+  /// on divergence.
+  AttemptEnd iterate_time_step(const CycleRecord& attempt, const BallState& ball,
+                               BestIterate& best);
   /// Whether a cycle that took the film force from `force_before_cycle` to
   /// `force` changed it by at most solver.force_tolerance of its scale.
   bool force_has_settled(double force, double force_before_cycle) const;
@@ -219,7 +230,8 @@ struct ImpactProblem::Impl {
   /// residual measure above `residual`, the measure before it.  Returns the
   /// measure after.
   double newton_on_worst_windows(const BallState& ball, double residual);
-  StepRecord make_record(int step, const BallState& ball, double force) const;
+  /// The step's row; `work_before` is the hierarchy's work units before the step.
+  StepRecord make_record(int step, const BallState& ball, double force, double work_before) const;
   /// Hands the step to the observer, with the fields on the full grid.
   void report_step(ImpactObserver& observer, const StepRecord& record, const Field& H,
                    bool snapshot) const;
@@ -263,14 +275,11 @@ struct ImpactProblem::Impl {
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
-  int last_cycles = 0;
-  double work_at_step_start = 0.0;
+
   /// The run's summary so far; the solver counters (unconverged and retried
   /// steps) are kept in it by advance_step.
   RunSummary summary;
-  double last_residual = 0.0;
   AttemptMemory attempt_memory;  ///< where the next step's attempts begin
-  double start_residual = 0.0;   ///< residual of the step's initial approximation
 };
 
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
@@ -308,8 +317,8 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_time_step(int step,
   const double force_guess =
       levels_done >= 2 ? (1.0 + omega) * run.force_now - omega * run.force_before : run.force_now;
   set_delta(newmark.delta_for_force(run.ball, force_guess));
-  start_residual = choose_start(omega);
-  return solve_with_retries(step, run.ball);
+  const double start_residual = choose_start(omega);
+  return solve_with_retries(step, run.ball, start_residual);
 }
 
 double ImpactProblem::Impl::choose_start(double omega) {
@@ -373,7 +382,8 @@ void ImpactProblem::Impl::shift_earlier_levels() {
 }
 
 ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
-                                                                       const BallState& ball) {
+                                                                       const BallState& ball,
+                                                                       double start_residual) {
   // Cycles until the tolerance.  Should the iteration diverge, lose ground or
   // stall above the tolerance (the highly nonlinear moments: dimple formation,
   // the spike and the collapse of the entrapped pocket before lift-off), the
@@ -396,11 +406,11 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
     // residual worse (multigrid/Fas.hpp): on 513^2 the coarse grids cannot
     // represent the spike, and their corrections blew steps up.
     solver->set_correction_safeguard(attempt > 0 ? cfg.correction_safeguard : 0.0);
-    bool converged = false;
+    AttemptEnd end;
     try {
-      const CycleRecord start_of_attempt{step, ball.T + newmark.dT(), newmark.dT(), attempt,
-                                         damping};
-      converged = iterate_time_step(start_of_attempt, ball, best);
+      const CycleRecord start_of_attempt{
+          step, ball.T + newmark.dT(), newmark.dT(), attempt, damping, 0, start_residual};
+      end = iterate_time_step(start_of_attempt, ball, best);
     } catch (const std::runtime_error&) {
       // A diverged attempt is never kept (only its iterates before it
       // diverged are candidates); when no attempt had a finite iterate, the
@@ -409,9 +419,9 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
     }
     ++tally.attempts;
     if (attempt != attempts.front()) tally.retried = true;
-    if (converged) {
+    if (end.converged) {
       attempt_memory = remember_attempt(attempt_memory, attempt);
-      return {fine.force(solver->solution()), true};
+      return {fine.force(solver->solution()), true, end.residual, end.cycles};
     }
     if (last_attempt) break;
     solver->solution() = start;
@@ -420,9 +430,7 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
   solver->solution() = best.P;
   set_delta(best.delta);
   fine.update_coefficients(best.P);
-  last_residual = best.residual;
-  last_cycles = best.cycles;
-  return {fine.force(best.P), false};
+  return {fine.force(best.P), false, best.residual, best.cycles};
 }
 
 double ImpactProblem::Impl::solve_initial_pressure() {
@@ -473,36 +481,35 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   return fine.force(solver->solution());
 }
 
-bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const BallState& ball,
-                                            BestIterate& best) {
+ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt,
+                                                                       const BallState& ball,
+                                                                       BestIterate& best) {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   const int step = attempt.step;
-  const double initial_residual = start_residual;  // every attempt starts from the same state
+  const double initial_residual = attempt.residual;  // every attempt starts from the same state
   CycleRecord report = attempt;
-  report.residual = initial_residual;
   if (cycle_observer) cycle_observer->on_cycle(report);
   std::vector<double> history;
   double force_before_cycle = fine.force(solver->solution());
   for (int c = 1;; ++c) {
     solver->cycle();
     set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
-    last_residual = solver->residual_norm();
-    if (cfg.local_newton_half_width > 0 && last_residual >= cfg.tolerance) {
-      last_residual = newton_on_worst_windows(ball, last_residual);
+    double residual = solver->residual_norm();
+    if (cfg.local_newton_half_width > 0 && residual >= cfg.tolerance) {
+      residual = newton_on_worst_windows(ball, residual);
     }
-    last_cycles = c;
-    history.push_back(last_residual);
+    history.push_back(residual);
     report.cycle = c;
-    report.residual = last_residual;
+    report.residual = residual;
     if (cycle_observer) cycle_observer->on_cycle(report);
-    if (!std::isfinite(last_residual) || last_residual > kDivergenceFactor * initial_residual)
+    if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
       throw std::runtime_error(fmt::format(
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
           "{:.3e} at the start of the step)",
-          step, ball.T + newmark.dT(), last_residual, initial_residual));
-    if (last_residual < best.residual) {
+          step, ball.T + newmark.dT(), residual, initial_residual));
+    if (residual < best.residual) {
       best.P = solver->solution();
-      best.residual = last_residual;
+      best.residual = residual;
       best.delta = fine.delta();
       best.cycles = c;
     }
@@ -511,10 +518,10 @@ bool ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt, const Ba
     force_before_cycle = force;
     switch (judge_attempt(history, cfg.tolerance, cfg.max_cycles, force_settled)) {
       case AttemptVerdict::Converged:
-        return true;
+        return {true, residual, c};
       case AttemptVerdict::LostGround:
       case AttemptVerdict::Exhausted:
-        return false;
+        return {false, residual, c};
       case AttemptVerdict::Continue:
         break;
     }
@@ -576,9 +583,7 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     // Half the time step halves the distance the pocket-collapse spike moves
     // in it (docs/model.md, section 8).
     std::optional<WholeInterval> whole;
-    if (solved)
-      whole = WholeInterval{solver->solution(0), hierarchy.finest().delta(), solved->force,
-                            last_residual, last_cycles};
+    if (solved) whole = WholeInterval{solver->solution(0), hierarchy.finest().delta(), *solved};
     restore_interval_start(start, run);
     const StepTally before = tally;
     ++tally.splits;
@@ -589,14 +594,14 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     tally.unconverged = false;
     advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
     advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
-    const bool halves_worse = whole && tally.unconverged && tally.residual > whole->residual;
+    const bool halves_worse = whole && tally.unconverged && tally.residual > whole->solved.residual;
     tally.residual = std::max(tally.residual, before.residual);
     tally.unconverged = tally.unconverged || before.unconverged;
     if (halves_worse) keep_whole_interval(*whole, start, before, run, dt);
     return;
   }
   if (!solved->converged) tally.unconverged = tally.retried = true;
-  accept_interval(run, dt, solved->force);
+  accept_interval(run, dt, *solved);
 }
 
 void ImpactProblem::Impl::keep_whole_interval(const WholeInterval& whole,
@@ -613,10 +618,8 @@ void ImpactProblem::Impl::keep_whole_interval(const WholeInterval& whole,
   solver->solution() = whole.P;
   set_delta(whole.delta);
   hierarchy.finest().update_coefficients(whole.P);
-  last_residual = whole.residual;
-  last_cycles = whole.cycles;
   newmark = Newmark(dt);
-  accept_interval(run, dt, whole.force);
+  accept_interval(run, dt, whole.solved);
 }
 
 ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
@@ -656,7 +659,8 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
   levels_done = start.levels_done;
 }
 
-void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, double force) {
+void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, const StepSolve& solved) {
+  const double force = solved.force;
   run.ball = newmark.advance(run.ball, force);
   summary.impulse += 0.5 * (run.force_now + force) * dt * kForceToAcceleration;
   const double edge_force = edge_force_of(solver->solution(0));
@@ -673,11 +677,12 @@ void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, double fo
   spacing_before = level_spacing;
   level_spacing = dt;
   ++levels_done;
-  tally.cycles += last_cycles;
-  tally.residual = std::max(tally.residual, last_residual);
+  tally.cycles += solved.cycles;
+  tally.residual = std::max(tally.residual, solved.residual);
 }
 
-StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force) const {
+StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, double force,
+                                            double work_before) const {
   const Field& P = solver->solution(0);
   const Field& H = hierarchy.finest().film();
   const int n = grid.n;
@@ -702,7 +707,7 @@ StepRecord ImpactProblem::Impl::make_record(int step, const BallState& ball, dou
   r.cycles = tally.cycles;
   r.residual = tally.residual;
   r.attempts = tally.attempts;
-  r.work = hierarchy.work_units() - work_at_step_start;
+  r.work = hierarchy.work_units() - work_before;
   return r;
 }
 
@@ -828,10 +833,10 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   }
   BallState& ball = run.ball;
   for (int step = run.first_step;; ++step) {
-    work_at_step_start = hierarchy.work_units();
+    const double work_before = hierarchy.work_units();
     advance_step(step, run);
     const Field& H = hierarchy.finest().film();
-    const StepRecord record = make_record(step, ball, run.force_now);
+    const StepRecord record = make_record(step, ball, run.force_now, work_before);
     const std::optional<RunOutcome> end = check_step_end(record, run);
     const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
