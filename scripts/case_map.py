@@ -7,7 +7,9 @@ one thread, and records how each run ends.
                                          [--timeout 900] [--only NAME_SUBSTRING]
 
 Writes OUT/map.csv (one row per case), OUT/map.md (the markdown table of docs/validation.md)
-and OUT/map.png (outcome over M and L, rebound speed).  Each case runs into OUT/runs/<name>/;
+and OUT/map.png (outcome over M and L, rebound speed).  A run that warns that its domain is too
+small (results.warnings; docs/usage.md, "How a run ends") has its edge impulse in the table and
+a ring in the figure.  Each case runs into OUT/runs/<name>/;
 its stderr is kept in OUT/runs/<name>.err.  Debian's python3 with numpy and matplotlib.
 """
 import argparse
@@ -68,7 +70,8 @@ def run_case(binary, grid, run_dir, config, overrides, timeout):
 def record(name, group, code, err, seconds, run_dir):
     row = {"case": name, "group": group, "exit": code, "outcome": "", "T_end": "",
            "T_lift_off": "", "rebound_speed": "", "max_force": "", "min_h": "", "steps": "",
-           "retried": "", "unconverged": "", "seconds": f"{seconds:.1f}", "message": err}
+           "retried": "", "unconverged": "", "edge_impulse": "", "warned": "",
+           "seconds": f"{seconds:.1f}", "message": err}
     path = os.path.join(run_dir, "run.json")
     if code == 0 and os.path.exists(path):
         r = json.load(open(path))["results"]
@@ -81,6 +84,8 @@ def record(name, group, code, err, seconds, run_dir):
         row["max_force"] = f"{r['max_force']:.4g}"
         row["steps"], row["retried"] = r["steps"], r["retried_steps"]
         row["unconverged"] = r["unconverged_steps"]
+        row["edge_impulse"] = f"{r['edge_impulse']:.4f}"
+        row["warned"] = "yes" if r["warnings"] else ""
         series = os.path.join(run_dir, "timeseries.csv")
         with open(series) as f:
             mins = [float(line.split(",")[5]) for line in list(f)[1:]]
@@ -93,19 +98,22 @@ def record(name, group, code, err, seconds, run_dir):
 
 
 FIELDS = ["case", "group", "exit", "outcome", "T_end", "T_lift_off", "rebound_speed",
-          "max_force", "min_h", "steps", "retried", "unconverged", "seconds", "message"]
+          "max_force", "min_h", "steps", "retried", "unconverged", "edge_impulse", "warned",
+          "seconds", "message"]
 
 
 def write_table(rows, path, grid):
     head = ["case", "exit", "outcome", "lift-off T", "rebound speed", "max force", "min h_min",
-            "steps", "retried", "unconverged", "s", "message (exit 1)"]
+            "steps", "retried", "unconverged", "edge impulse", "domain warning", "s",
+            "message (exit 1)"]
     with open(path, "w") as f:
         f.write(f"| {' | '.join(head)} |\n|{'---|' * len(head)}\n")
         for r in rows:
             message = r["message"].replace("ehlsim: error: ", "").replace("|", "/")
             cells = [r["case"], str(r["exit"]), r["outcome"], r["T_lift_off"], r["rebound_speed"],
                      r["max_force"], r["min_h"], str(r["steps"]), str(r["retried"]),
-                     str(r["unconverged"]), r["seconds"], message]
+                     str(r["unconverged"]), r["edge_impulse"], r["warned"], r["seconds"],
+                     message]
             f.write(f"| {' | '.join(cells)} |\n")
 
 
@@ -128,6 +136,9 @@ def plot(rows, path, grid):
             unconverged = r["unconverged"] not in ("", 0)
             left.scatter(i, k, s=260, color=colour, marker="s" if not unconverged else "D",
                          edgecolors="k")
+            if r["warned"]:
+                left.scatter(i, k, s=560, facecolors="none", edgecolors="tab:orange",
+                             linewidths=1.8)
             label = r["rebound_speed"] or {"failed": "exit 1", "killed": "cap"}.get(
                 r["outcome"], r["outcome"])
             left.annotate(label, (i, k), xytext=(0, 13), textcoords="offset points",
@@ -137,8 +148,8 @@ def plot(rows, path, grid):
     left.set_ylim(-0.6, len(L_VALUES) - 0.3)
     left.set_xlabel("M")
     left.set_ylabel("L")
-    left.set_title(f"outcome on {grid}^2 (label: rebound speed; diamond: unconverged steps)",
-                   fontsize=9)
+    left.set_title(f"outcome on {grid}^2 (label: rebound speed; diamond: unconverged steps;\n"
+                   "orange ring: warns that the domain is too small)", fontsize=9)
     for outcome, colour in COLOURS.items():
         left.scatter([], [], color=colour, marker="s", edgecolors="k", label=outcome)
     left.legend(fontsize=7, loc="lower left", ncol=5)
@@ -183,7 +194,8 @@ def main():
         r = rows[-1]
         print(f"{name:20s} exit {code!s:7s} {r['outcome']:9s} lift-off {r['T_lift_off']:7s} "
               f"V {r['rebound_speed']:8s} retried {r['retried']!s:3s} unconv "
-              f"{r['unconverged']!s:3s} {seconds:6.1f} s {err[:90]}", flush=True)
+              f"{r['unconverged']!s:3s} edge {r['edge_impulse']:6s} {seconds:6.1f} s {err[:90]}",
+              flush=True)
     with open(os.path.join(out, "map.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=FIELDS)
         w.writeheader()
