@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <optional>
 
-#include "Study.hpp"
+#include "Cli.hpp"
 #include "impact/ImpactObserver.hpp"
 #include "io/Interrupt.hpp"
 #include "io/MemoryGuard.hpp"

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "Study.hpp"
+#include "Cli.hpp"
 
 struct RollingOptions : cli::CaseOptions {
   RollingOptions() { out_dir = "rolling"; }

@@ -38,6 +38,7 @@
 #include <thread>
 #include <variant>
 
+#include "Cli.hpp"
 #include "analysis/SpikeAnalysis.hpp"
 #include "grid/Grid.hpp"
 #include "io/AtomicFile.hpp"
@@ -50,58 +51,6 @@
 #include "io/RunOutput.hpp"
 
 extern char** environ;
-
-namespace cli {
-
-void print_error(std::string_view message) {
-  // Longer than PATH_MAX: no file name, a value nobody wants to read in full.
-  constexpr std::size_t kLongestWord = 4096;
-  std::string line;
-  std::size_t start = 0;
-  while (start <= message.size()) {
-    const std::size_t end = std::min(message.find(' ', start), message.size());
-    const std::string_view word = message.substr(start, end - start);
-    line += word.size() > kLongestWord ? ehlsim::echo_input(word) : std::string(word);
-    if (end < message.size()) line += ' ';
-    start = end + 1;
-  }
-  std::replace(line.begin(), line.end(), '\n', ' ');
-  std::replace(line.begin(), line.end(), '\r', ' ');
-  std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
-}
-
-void print_warnings(const std::vector<std::string>& warnings) {
-  std::fflush(stdout);
-  for (const std::string& warning : warnings)
-    std::fprintf(stderr, "ehlsim: warning: %s\n", warning.c_str());
-}
-
-CLI::Validator not_empty(const std::string& what) {
-  return CLI::Validator(
-      [what](const std::string& value) {
-        return value.empty() ? "must name " + what + ", not be empty" : std::string();
-      },
-      "", "NOT_EMPTY");
-}
-
-void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
-                      const std::string& what_out) {
-  command.add_option("config", options.config_file,
-                     "TOML file with the case (default: " + default_case + ")");
-  command
-      .add_option("-o,--out", options.out_dir,
-                  "run directory for " + what_out + " (created if missing)")
-      ->check(not_empty("a directory"))
-      ->capture_default_str();
-  command
-      .add_option("--set", options.overrides,
-                  "override one parameter, e.g. --set case.M=20 (repeatable, applied in order)")
-      ->type_name("KEY=VALUE")
-      ->allow_extra_args(false)
-      ->take_all();
-}
-
-}  // namespace cli
 
 namespace {
 

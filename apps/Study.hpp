@@ -1,66 +1,9 @@
 #pragma once
 // `ehlsim study`: the pressure-spike study of the paper with one command
-// (apps/Study.cpp), and what the subcommands of ehlsim share.
-#include <fmt/format.h>
-
+// (apps/Study.cpp).
 #include <CLI/CLI.hpp>
-#include <cstdio>
-#include <filesystem>
-#include <optional>
 #include <string>
-#include <string_view>
-#include <utility>
 #include <vector>
-
-namespace cli {
-
-inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;
-inline constexpr int kExitBadInput = 2;
-
-/// Text for stdout: what a command reports as it goes (the case, a study's
-/// progress, the summary).  A write that fails because the reader went away
-/// (`ehlsim study | head -3`) or stdout is closed is not a failure of the
-/// command: the rest of the report is lost, the run goes on, and the exit
-/// code tells what it left on disk (SIGPIPE is ignored: apps/ehlsim.cpp).
-template <typename... Args>
-void print_out(fmt::format_string<Args...> format, Args&&... args) {
-  const std::string text = fmt::format(format, std::forward<Args>(args)...);
-  std::fwrite(text.data(), 1, text.size(), stdout);  // its error is the reader's
-}
-
-/// "ehlsim: error: <message>" as one line on stderr.  Words longer than any
-/// path (a runaway value that reached the message unshortened, e.g. through
-/// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
-void print_error(std::string_view message);
-
-/// "ehlsim: warning: <line>" on stderr for each of `warnings` (what a finished
-/// run's user should know about its result), after what stdout holds so far,
-/// also when both go to one pipe.
-void print_warnings(const std::vector<std::string>& warnings);
-
-/// The CONFIG argument of a command: none when empty (the built-in case).
-inline std::optional<std::filesystem::path> config_path(const std::string& argument) {
-  if (argument.empty()) return std::nullopt;
-  return std::filesystem::path(argument);
-}
-
-/// The options every simulation command has: [CONFIG], -o/--out DIR,
-/// --set KEY=VALUE (repeatable), -q/--quiet; `what_out` lists the files.
-struct CaseOptions {
-  std::string config_file;  ///< "" = the built-in default case
-  std::string out_dir;
-  std::vector<std::string> overrides;
-  bool quiet = false;
-};
-void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
-                      const std::string& what_out);
-
-/// Refuses an empty argument of an option that names a file or directory
-/// ("--out: must name a directory, not be empty").
-[[nodiscard]] CLI::Validator not_empty(const std::string& what);
-
-}  // namespace cli
 
 struct StudyOptions {
   int grid = 257;

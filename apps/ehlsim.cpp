@@ -32,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "Cli.hpp"
 #include "Rolling.hpp"
 #include "Study.hpp"
 #include "grid/Grid.hpp"
