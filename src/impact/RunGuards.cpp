@@ -161,12 +161,14 @@ void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
 std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c) {
   const double share = s.edge_impulse / c.V0;
   if (!(share > kEdgeImpulseWarning)) return {};
+  // Twice the half-width on 2 (n - 1) + 1 points keeps the mesh (and a
+  // grid of 2^k + 1 points).
   return {fmt::format(
       "the film within a tenth of the side from the domain's edges took {:.1f} % of the impact "
       "momentum (more than {:g} %): the boundary condition P = 0 there cuts the squeeze film "
-      "short, and the results depend on the domain; widen it (grid.half_width, and grid.points "
-      "for the same mesh) and compare",
-      100.0 * share, 100.0 * kEdgeImpulseWarning)};
+      "short, and the results depend on the domain; widen it at the same mesh (grid.half_width "
+      "= {:g} with grid.points = {} doubles it) and compare",
+      100.0 * share, 100.0 * kEdgeImpulseWarning, 2.0 * c.half_width, 2 * c.grid_points - 1)};
 }
 
 bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {
