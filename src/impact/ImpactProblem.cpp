@@ -275,7 +275,6 @@ struct ImpactProblem::Impl {
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
-
   /// The run's summary so far; the solver counters (unconverged and retried
   /// steps) are kept in it by advance_step.
   RunSummary summary;
