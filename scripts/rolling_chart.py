@@ -4,6 +4,7 @@ central film Hc in Moes units against M, one line per L, beside the
 Nijenbanning-Venner-Moes formula (ehlsim's run.json carries both).
 
     /usr/bin/python3 scripts/rolling_chart.py --grid 257 [--out DIR] [--ehlsim BIN]
+                                              [--elliptic] [--set KEY=VALUE]...
 
 Writes DIR/rolling_chart.md (the table), DIR/rolling_chart.json and
 DIR/rolling_chart.png.  A case that fails (exit 1) is listed with its reason.
@@ -19,10 +20,12 @@ M_VALUES = [10, 20, 50, 100, 200, 500, 1000]
 L_VALUES = [5, 10, 20]
 
 
-def run_case(ehlsim, grid, M, L, D, work):
+def run_case(ehlsim, grid, M, L, D, work, overrides=()):
     out = Path(work) / f"M{M}_L{L}_D{D}"
     cmd = [ehlsim, "rolling", "--quiet", "--set", f"grid.points={grid}", "--set", f"case.M={M}",
            "--set", f"case.L={L}", "--set", f"case.D={D}", "--out", str(out)]
+    for assignment in overrides:
+        cmd += ["--set", assignment]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
         return {"M": M, "L": L, "D": D, "exit": p.returncode, "error": p.stderr.strip()}
@@ -76,6 +79,8 @@ def main():
     parser.add_argument("--out", default="rolling-chart")
     parser.add_argument("--ehlsim", default=str(ROOT / "build" / "apps" / "ehlsim"))
     parser.add_argument("--elliptic", action="store_true", help="also D = 0.5 and 2 at M = 100")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a further override of every case (repeatable)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -85,7 +90,7 @@ def main():
         if args.elliptic:
             cases += [(M, 10, D) for D in (0.5, 2) for M in (20, 100)]
         for M, L, D in cases:
-            rows.append(run_case(args.ehlsim, args.grid, M, L, D, work))
+            rows.append(run_case(args.ehlsim, args.grid, M, L, D, work, args.set))
             print(rows[-1], flush=True)
     (out / "rolling_chart.json").write_text(json.dumps(rows, indent=1))
     (out / "rolling_chart.md").write_text(table(rows, args.grid))

@@ -49,8 +49,14 @@ struct RollingConfig : SolverSettings {
   /// force error then falls as fast as the residual (0.5 halved it per
   /// cycle and doubled the cycles; M = 10, L = 0 on 129^2).
   double h0_relaxation = 1.0;
-  /// Cycles on each coarse level of the full multigrid start.
-  int fmg_cycles = 4;
+  /// Cycles on each coarse level of the full multigrid start.  8: with 4,
+  /// L = 20 on 1025^2 ended with exit 1 for M = 10, 20, 50 and 100 (the
+  /// finest grid's relaxation at the outlet spike cannot recover from a start
+  /// carried up too early); with 8 M = 20, 50 and 100 converge in 76, 140 and
+  /// 167 cycles, and the chart on 257^2 and 513^2 takes 336 and 526 cycles
+  /// instead of 364 and 538, for 1 % and 3 % more work (docs/validation.md,
+  /// "L = 20 on 1025^2").
+  int fmg_cycles = 8;
   /// tolerance 1e-5: with the local Newton step after each finest-grid cycle
   /// (SolverSettings::local_newton_half_width), whose windows clear the
   /// residual of the outlet spike before the smooth error has gone, 1e-4 left
@@ -66,8 +72,8 @@ struct RollingConfig : SolverSettings {
   /// run (M = 20 on 513^2: 41 and 80 cycles at two revisions of the same
   /// solver, 100 with a trial form of the H0 step's regrowth; M = 10: 69,
   /// more than 100, 79), so 200 leaves them room.
-  /// A case that cannot converge (L = 20 on 1025^2) fails after about half a
-  /// second per cycle there on two threads.
+  /// A case that cannot converge (M = 10, L = 20 on 1025^2) fails after about
+  /// half a second per cycle there on two threads.
   RollingConfig() {
     tolerance = 1e-5;
     max_cycles = 200;
