@@ -51,8 +51,9 @@ struct RollingConfig : SolverSettings {
   double h0_relaxation = 1.0;
   /// Cycles on each coarse level of the full multigrid start.  8: with 4,
   /// L = 20 on 1025^2 ended with exit 1 for M = 10, 20, 50 and 100 (the
-  /// finest grid's relaxation at the outlet spike cannot recover from a start
-  /// carried up too early); with 8 M = 20, 50 and 100 converge in 76, 140 and
+  /// damped retries of the finest grid stalled at the outlet spike from a
+  /// start carried up less converged: M = 50's 513^2 stage ended at 1.8e-2,
+  /// with 8 at 6.8e-3); with 8 M = 20, 50 and 100 converge in 76, 140 and
   /// 167 cycles, and the chart on 257^2 and 513^2 takes 336 and 526 cycles
   /// instead of 364 and 538, for 1 % and 3 % more work (docs/validation.md,
   /// "L = 20 on 1025^2").
