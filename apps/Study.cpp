@@ -97,6 +97,7 @@ struct Case {
   int exit_code = -1;
   double wall_seconds = 0.0;
   std::chrono::steady_clock::time_point start;
+  std::vector<std::string> warnings;  ///< of its run.json, once it finished (exit 0)
 };
 
 std::vector<Case> study_cases(const StudyOptions& options, const fs::path& out) {
@@ -302,7 +303,8 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       std::error_code ec;  // already gone after the first case
       fs::remove(stale_summary, ec);
       print_out("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
-      for (const std::string& warning : case_warnings(c))
+      c.warnings = case_warnings(c);
+      for (const std::string& warning : c.warnings)
         print_out("  warning  {}: {}\n", case_label(c), warning);
     } else {
       print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
@@ -451,7 +453,7 @@ nlohmann::json case_summary(const Case& c) {
                           {"dir", c.dir.filename().string()},
                           {"exit_code", c.exit_code},
                           {"wall_seconds", c.wall_seconds}};
-  if (c.exit_code == cli::kExitOk) entry["warnings"] = case_warnings(c);
+  if (c.exit_code == cli::kExitOk) entry["warnings"] = c.warnings;
   if (c.exit_code == cli::kExitOk && c.command == "impact") {
     const RunAnalysisReport report = analyze_run_directory(c.dir, c.dir, {});
     entry["snapshots"] = report.snapshots;

@@ -341,10 +341,9 @@ std::string RollingProblem::Impl::domain_hint() {
   while (level + 1 < solver->num_levels() &&
          hierarchy.level(level).grid().n != history.back().points)
     ++level;
-  const Field& P = solver->solution(level);
-  const bool finite =
-      std::all_of(P.span().begin(), P.span().end(), [](double p) { return std::isfinite(p); });
-  const double edge_load = finite ? edge_load_share(hierarchy.level(level).grid(), P) : 0.0;
+  // A diverged (non-finite) pressure gives no share above the warning:
+  // edge_load_share is 0 or NaN for it.
+  const double edge_load = edge_load_share(hierarchy.level(level).grid(), solver->solution(level));
   if (!(edge_load > kEdgeLoadWarning)) return {};
   // M = 1, L = 0 on the default domain: 3 % of the load at the edges, and a
   // film that keeps growing with the domain (docs/validation.md).
