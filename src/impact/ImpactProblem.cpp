@@ -243,6 +243,9 @@ struct ImpactProblem::Impl {
   double edge_force_of(const Field& P) const;
   /// Throws RunFailure when the step broke a guard; the outcome when the run ends here.
   std::optional<RunOutcome> check_step_end(const StepRecord& record, RunProgress& run);
+  /// advance_step, then check_step_end; a failure says what the edge impulse
+  /// so far says of the domain (domain_note).
+  std::pair<StepRecord, std::optional<RunOutcome>> solve_step(int step, RunProgress& run);
   void add_to_summary(const StepRecord& record);
 
   ImpactConfig cfg;
@@ -502,7 +505,7 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
     report.residual = residual;
     if (cycle_observer) cycle_observer->on_cycle(report);
     if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
-      throw std::runtime_error(fmt::format(
+      throw RunFailure(fmt::format(
           "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
           "{:.3e} at the start of the step)",
           step, ball.T + newmark.dT(), residual, initial_residual));
@@ -800,6 +803,20 @@ std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& 
   return std::nullopt;
 }
 
+std::pair<StepRecord, std::optional<RunOutcome>> ImpactProblem::Impl::solve_step(int step,
+                                                                                 RunProgress& run) {
+  const double work_before = hierarchy.work_units();
+  try {
+    advance_step(step, run);
+    const StepRecord record = make_record(step, run.ball, run.force_now, work_before);
+    return {record, check_step_end(record, run)};
+  } catch (const RunFailure& e) {
+    const std::string message = with_domain_note(e.what(), summary.edge_impulse, cfg);
+    if (message == e.what()) throw;
+    throw RunFailure(message);
+  }
+}
+
 void ImpactProblem::Impl::add_to_summary(const StepRecord& record) {
   summary.steps = record.step;
   summary.T_final = record.T;
@@ -832,11 +849,8 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   }
   BallState& ball = run.ball;
   for (int step = run.first_step;; ++step) {
-    const double work_before = hierarchy.work_units();
-    advance_step(step, run);
+    const auto [record, end] = solve_step(step, run);
     const Field& H = hierarchy.finest().film();
-    const StepRecord record = make_record(step, ball, run.force_now, work_before);
-    const std::optional<RunOutcome> end = check_step_end(record, run);
     const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
     add_to_summary(record);

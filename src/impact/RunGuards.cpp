@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "grid/FieldExtrema.hpp"
 #include "reynolds/ReynoldsOperator.hpp"
@@ -158,17 +161,29 @@ void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
       where(r), r.step, r.Delta, r.dDelta_dT, r.p_max));
 }
 
-std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c) {
-  const double share = s.edge_impulse / c.V0;
+std::string domain_note(double edge_impulse, const ImpactConfig& c) {
+  const double share = edge_impulse / c.V0;
   if (!(share > kEdgeImpulseWarning)) return {};
   // Twice the half-width on 2 (n - 1) + 1 points keeps the mesh (and a
   // grid of 2^k + 1 points).
-  return {fmt::format(
+  return fmt::format(
       "the film within a tenth of the side from the domain's edges took {:.1f} % of the impact "
       "momentum (more than {:g} %): the boundary condition P = 0 there cuts the squeeze film "
       "short, and the results depend on the domain; widen it at the same mesh (grid.half_width "
       "= {:g} with grid.points = {} doubles it) and compare",
-      100.0 * share, 100.0 * kEdgeImpulseWarning, 2.0 * c.half_width, 2 * c.grid_points - 1)};
+      100.0 * share, 100.0 * kEdgeImpulseWarning, 2.0 * c.half_width, 2 * c.grid_points - 1);
+}
+
+std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c) {
+  std::string note = domain_note(s.edge_impulse, c);
+  if (note.empty()) return {};
+  return {std::move(note)};
+}
+
+std::string with_domain_note(const std::string& message, double edge_impulse,
+                             const ImpactConfig& c) {
+  const std::string note = domain_note(edge_impulse, c);
+  return note.empty() ? message : fmt::format("{}; by then {}", message, note);
 }
 
 bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {

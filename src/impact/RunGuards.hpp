@@ -96,8 +96,17 @@ void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT);
 /// 0.02 V0; M = 50 (0.045 V0) only at L = 0.
 inline constexpr double kEdgeImpulseWarning = 0.01;
 
-/// What a finished run should tell its user about its domain: a line when
-/// the edge impulse exceeds kEdgeImpulseWarning of m V0, else nothing.
+/// What an edge impulse (in m v0) says of the domain: a sentence when it
+/// exceeds kEdgeImpulseWarning of m V0, else "".
+[[nodiscard]] std::string domain_note(double edge_impulse, const ImpactConfig& c);
+
+/// What a finished run should tell its user about its domain: domain_note's
+/// sentence, or nothing.
 [[nodiscard]] std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c);
+
+/// A failure's message with domain_note of the edge impulse so far appended:
+/// a run that fails while its squeeze film reaches the edges should say so.
+[[nodiscard]] std::string with_domain_note(const std::string& message, double edge_impulse,
+                                           const ImpactConfig& c);
 
 }  // namespace ehlsim
