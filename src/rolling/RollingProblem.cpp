@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include "grid/EdgeBand.hpp"
 #include "grid/FieldExtrema.hpp"
@@ -95,6 +96,18 @@ constexpr double kForceLeftFactor = 10.0;
 /// +0.6 % on a domain four times the default's.
 constexpr double kEdgeLoadWarning = 0.01;
 
+/// What an edge load share says of the domain: a sentence above
+/// kEdgeLoadWarning, else "".  A non-finite pressure gives a share of 0 or
+/// NaN (edge_load_share), so no sentence.
+std::string domain_note(double edge_load) {
+  if (!(edge_load > kEdgeLoadWarning)) return {};
+  return fmt::format(
+      "{:.1f} % of the load lies within a tenth of the domain's side from its inlet and side "
+      "edges (more than {:g} %): the film depends on the domain; extend it (grid.x_min, "
+      "grid.y_min, grid.y_max) and compare",
+      100.0 * edge_load, 100.0 * kEdgeLoadWarning);
+}
+
 /// Thrown by a stage whose iteration diverged (caught by the retries).
 struct StageDiverged : RollingFailure {
   using RollingFailure::RollingFailure;
@@ -172,8 +185,7 @@ struct RollingProblem::Impl {
   void update_h0(int level);
   void set_h0(double H0);
   [[nodiscard]] RollingResult result() const;
-  /// "; ... the domain is too small ..." when the pressure of the level last
-  /// cycled on reaches the domain's edges (kEdgeLoadWarning), else "".
+  /// "; " and domain_note of the pressure of the level last cycled on, or "".
   [[nodiscard]] std::string domain_hint();
 
   RollingConfig cfg;
@@ -341,16 +353,11 @@ std::string RollingProblem::Impl::domain_hint() {
   while (level + 1 < solver->num_levels() &&
          hierarchy.level(level).grid().n != history.back().points)
     ++level;
-  // A diverged (non-finite) pressure gives no share above the warning:
-  // edge_load_share is 0 or NaN for it.
-  const double edge_load = edge_load_share(hierarchy.level(level).grid(), solver->solution(level));
-  if (!(edge_load > kEdgeLoadWarning)) return {};
-  // M = 1, L = 0 on the default domain: 3 % of the load at the edges, and a
+  const std::string note =
+      domain_note(edge_load_share(hierarchy.level(level).grid(), solver->solution(level)));
+  // M = 1, L = 0 on the default domain: 4 % of the load at the edges, and a
   // film that keeps growing with the domain (docs/validation.md).
-  return fmt::format(
-      "; {:.1f} % of the load lies near the domain's inlet and side edges: the domain is too "
-      "small for this case (grid.x_min, grid.y_min, grid.y_max)",
-      100.0 * edge_load);
+  return note.empty() ? note : "; " + note;
 }
 
 RollingResult RollingProblem::Impl::result() const {
@@ -375,12 +382,8 @@ RollingResult RollingProblem::Impl::result() const {
   r.cycles = history.back().cycle;  // on the finest grid, over all its attempts
   r.work = hierarchy.work_units();
   r.edge_load = edge_load_share(grid, r.P);
-  if (r.edge_load > kEdgeLoadWarning)
-    r.warnings.push_back(fmt::format(
-        "{:.1f} % of the load lies within a tenth of the domain's side from its inlet and side "
-        "edges (more than {:g} %): the film depends on the domain; extend it (grid.x_min, "
-        "grid.y_min, grid.y_max) and compare",
-        100.0 * r.edge_load, 100.0 * kEdgeLoadWarning));
+  if (std::string note = domain_note(r.edge_load); !note.empty())
+    r.warnings.push_back(std::move(note));
   return r;
 }
 
