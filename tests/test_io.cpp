@@ -29,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "dynamics/DryHertz.hpp"
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/Scaling.hpp"
@@ -105,6 +106,39 @@ std::string set_error(const std::vector<std::string>& sets) {
 // ---------------------------------------------------------------------------
 // Registry
 // ---------------------------------------------------------------------------
+
+TEST(RegistryErrors, TheDryContactMustFitTheDomainAndSpanFourTimeSteps) {
+  // The largest dry contact radius is 1.0456 V0^(2/5) and the contact lasts
+  // 3.2181 V0^(-1/5) (model.md, "Reference values").
+  const double radius = std::sqrt(std::pow(1.25, 0.4));
+  EXPECT_NEAR(dry_largest_contact_radius(1.0), radius, 1e-15);
+  EXPECT_NEAR(radius, 1.0456, 1e-4);
+  EXPECT_NEAR(dry_largest_contact_radius(32.0), 4.0 * radius, 1e-12);
+  EXPECT_NEAR(dry_contact_duration(1.0 / 32.0), 2.0 * kDryContactDuration, 1e-12);
+  EXPECT_EQ(set_error({"grid.half_width=1"}),
+            "grid.half_width = 1: must be > 1.046, the largest radius of the dry contact at "
+            "time.V0 = 1: the domain must hold the contact (the paper's is 1.5) (--set)");
+  EXPECT_EQ(load_config(std::nullopt, {"grid.half_width=1.05"}).half_width, 1.05);
+  // A default that a given value rules out is named with its value.
+  EXPECT_EQ(set_error({"time.V0=32"}),
+            "grid.half_width = 1.5 (the default): must be > 4.183, the largest radius of the dry "
+            "contact at time.V0 = 32: the domain must hold the contact (the paper's is 1.5)");
+  EXPECT_EQ(set_error({"time.dT=0.81"}),
+            "time.dT = 0.81: must be <= 0.8045: the dry contact at time.V0 = 1 lasts 3.218, and a "
+            "run needs at least 4 steps in it (--set)");
+  EXPECT_EQ(load_config(std::nullopt, {"time.dT=0.8"}).dT, 0.8);
+  // The mesh is the default time step.
+  EXPECT_EQ(set_error({"grid.points=33", "grid.half_width=50"}),
+            "grid.half_width = 50: gives a mesh, and so a default time.dT, of 3.125; it must be <= "
+            "0.8045 (the dry contact at time.V0 = 1 lasts 3.218, and a run needs at least 4 steps "
+            "in it): set time.dT or use a finer mesh (--set)");
+  EXPECT_EQ(
+      load_config(std::nullopt, {"grid.points=33", "grid.half_width=50", "time.dT=0.1"}).half_width,
+      50.0);
+  // A rigid ball has no dry contact.
+  EXPECT_EQ(load_config(std::nullopt, {"body.elastic=false", "grid.half_width=0.5"}).half_width,
+            0.5);
+}
 
 TEST(Registry, KeysAreUniqueDocumentedAndInKnownSections) {
   std::set<std::string> keys;
@@ -321,8 +355,11 @@ TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
             "solver.coarsest_points = 12: must be 2^k + 1 between 5 and 4097 (--set)");
   EXPECT_EQ(set_error({"grid.points=33", "solver.coarsest_points=65"}),
             "solver.coarsest_points = 65: must be <= grid.points (33) (--set)");
-  // The default coarsest level (17) does not fit a 9-point grid.
-  EXPECT_EQ(set_error({"grid.points=9"}), "solver.coarsest_points: must be <= grid.points (9)");
+  // The default coarsest level (17) comes down to a 9-point grid; a given one does not.
+  EXPECT_EQ(load_config(std::nullopt, {"grid.points=9"}).coarsest_points, 9);
+  EXPECT_EQ(load_config(std::nullopt, {"grid.points=33"}).coarsest_points, 17);
+  EXPECT_EQ(set_error({"grid.points=9", "solver.coarsest_points=17"}),
+            "solver.coarsest_points = 17: must be <= grid.points (9) (--set)");
 }
 
 TEST(RegistryErrors, WrongType) {
@@ -1605,8 +1642,10 @@ TEST(Progress, EndTimeEstimate) {
   // Before the rebound: dry contact from Delta0/V0, plus its duration and the margin.
   EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 0.5, -1.0, inf, 1.0, 1.0),
                    1.0 + kDryContactDuration + margin);
+  // A slower ball stays longer in contact: 3.2181 V0^(-1/5) (model.md).
+  const double slow_duration = kDryContactDuration * std::pow(0.5, -0.2);
   EXPECT_DOUBLE_EQ(estimate_end_time(0.5, 1.5, -0.5, inf, 2.0, 0.5),
-                   4.0 + kDryContactDuration + margin);
+                   4.0 + (1.0 + kLiftOffMargin) * slow_duration);
   // Rebound: Delta extrapolated back to 0.
   EXPECT_DOUBLE_EQ(estimate_end_time(3.6, -0.5, 0.9, inf, 1.0, 1.0), 3.6 + 0.5 / 0.9 + margin);
   // Late: never earlier than T + margin.

@@ -34,10 +34,6 @@ constexpr double kGaussianSupportWavelengths = 1.0;
 /// Dry trajectory step: Newmark at 1e-3 gives the lift-off time to 3e-7
 /// (docs/validation.md, dry Hertz impact), far below any mesh size used.
 constexpr double kDryTimeStep = 1e-3;
-/// Dry contact duration of the model's units at V0 = 1 (model.md); the
-/// duration scales as V0^(-1/5).
-constexpr double kDryContactDuration = 3.2181;
-constexpr double kDryDurationExponent = -0.2;
 /// Most steps of the dry trajectory over one contact duration (a table of at
 /// most about 2^19 time levels, 12 MB, for any V0).
 constexpr double kMaxDryContactSteps = 1 << 18;
@@ -339,7 +335,7 @@ DryContactRadius::DryContactRadius(double Delta0, double V0) {
   // the last step on the kDryTimeStep grid before contact, however far away
   // the ball starts, and its table spans the contact only.  Very slow impacts
   // last long (V0^-0.2): their step grows so that the table stays bounded.
-  const double duration = kDryContactDuration * std::pow(V0, kDryDurationExponent);
+  const double duration = dry_contact_duration(V0);
   const double dt = std::max(kDryTimeStep, duration / kMaxDryContactSteps);
   const double free_steps = std::floor(std::max(Delta0, 0.0) / (V0 * dt));
   const double T_start = free_steps * dt;

@@ -74,7 +74,21 @@ std::pair<double, double> hermite_minimum(const BallState& a, const BallState& b
   return {a.T + t * h, value(t)};
 }
 
+/// The dry contact time scales as V0^(-1/5) (Hertz).
+constexpr double kContactDurationExponent = -0.2;
+/// The largest approach grows as the energy^(2/5) (Hertz).
+constexpr double kApproachExponent = 0.4;
 }  // namespace
+
+double dry_contact_duration(double V0) {
+  return kDryContactDuration * std::pow(V0, kContactDurationExponent);
+}
+
+double dry_largest_approach(double energy) { return std::pow(2.5 * energy, kApproachExponent); }
+
+double dry_largest_contact_radius(double V0) {
+  return std::sqrt(dry_largest_approach(0.5 * V0 * V0));
+}
 
 double dry_hertz_force(double Delta) {
   if (!(Delta < 0.0)) return 0.0;

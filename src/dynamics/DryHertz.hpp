@@ -13,6 +13,22 @@ namespace ehlsim {
 /// Hertz contact radius A = sqrt(-Delta) (0 out of contact).
 [[nodiscard]] double dry_contact_radius(double Delta);
 
+/// Duration of the dry contact at V0 = 1 in units of t_bar: model.md,
+/// "Reference values" (1.0000 -> 4.2181; the paper's 3.218).
+inline constexpr double kDryContactDuration = 3.2181;
+
+/// Duration of the dry contact of a ball arriving at speed V0 (in v0):
+/// 3.2181 V0^(-1/5), the Hertz scaling of the contact time.
+[[nodiscard]] double dry_contact_duration(double V0);
+
+/// Largest approach -Delta of the dry impact whose energy (ball and solids)
+/// is E, in the model's units: (5/2 E)^(2/5); 1.0934 for E = 1/2 (model.md).
+[[nodiscard]] double dry_largest_approach(double energy);
+
+/// Largest dry contact radius of a ball arriving at speed V0:
+/// sqrt(dry_largest_approach(V0^2 / 2)) = 1.0456 V0^(2/5).
+[[nodiscard]] double dry_largest_contact_radius(double V0);
+
 struct DryImpact {
   std::vector<double> T, Delta, V;  ///< every time level, from T = 0 to the end
   static constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();

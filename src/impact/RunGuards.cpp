@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "dynamics/DryHertz.hpp"
 #include "grid/FieldExtrema.hpp"
 #include "reynolds/ReynoldsOperator.hpp"
 
@@ -47,15 +48,9 @@ constexpr double kMaxKeptResidualFactor = 100.0;
 /// At rest: at most this fraction of the impact energy V0^2 / 2 is left in the
 /// ball and the solids, so that any later rebound is below 1 % of V0.
 constexpr double kRestEnergyFraction = 1e-4;
-/// Dry contact time in units of t_bar for V0 = 1 (model.md, reference values);
-/// it scales as V0^(-1/5).
-constexpr double kDryContactTime = 3.2181;
 /// time.max_steps default: the steps of this many dry lift-off times.  The
 /// case map's runs end by 1.03 dry lift-off times (Roelands-DH M = 1000, T = 4.31).
 constexpr double kMaxStepsDryLiftOffs = 4.0;
-
-/// Dry Hertz approach (5/2 E)^(2/5) for the energy E (E = V0^2 / 2: (5/4 V0^2)^(2/5)).
-double dry_approach(double energy) { return std::pow(2.5 * energy, 0.4); }
 
 std::string where(const StepRecord& r) {
   return fmt::format("time step {} (T = {:.5f})", r.step, r.T);
@@ -73,7 +68,7 @@ double elastic_energy(const Grid2D& grid, const Field& P, const Field& W) {
 }
 
 double default_max_steps_exact(double Delta0, double V0, double dT) {
-  const double dry_lift_off = Delta0 / V0 + kDryContactTime * std::pow(V0, -0.2);
+  const double dry_lift_off = Delta0 / V0 + dry_contact_duration(V0);
   return std::ceil(kMaxStepsDryLiftOffs * dry_lift_off / dT);
 }
 
@@ -89,7 +84,7 @@ RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {
   RunBounds b;
   b.energy0 = 0.5 * c.V0 * c.V0 + std::max(0.0, elastic_energy0);
   b.max_speed = std::sqrt(2.0 * b.energy0) * (1.0 + kSpeedTolerance + kSpeedTimeError * dT * dT);
-  const double approach = dry_approach(b.energy0);
+  const double approach = dry_largest_approach(b.energy0);
   b.min_delta = -(1.0 + kApproachMargin) * (approach + c.waviness_amplitude);
   if (c.elastic)
     b.max_force = kForceMargin * 2.0 * std::numbers::pi / 3.0 * std::pow(approach, 1.5);

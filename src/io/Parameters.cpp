@@ -17,6 +17,7 @@
 #include <system_error>
 #include <utility>
 
+#include "dynamics/DryHertz.hpp"
 #include "grid/Grid.hpp"
 #include "impact/RunGuards.hpp"
 #include "impact/Scaling.hpp"
@@ -282,7 +283,9 @@ void add_physical_case_parameters(std::vector<ParameterSpec>& r) {
 
 /// [time]: step, end, step cap and the start of the ball.
 void add_time_parameters(std::vector<ParameterSpec>& r) {
-  r.push_back(real("time.dT", kNoDefault, "the mesh size", above(0), kUnbounded, "", "time step"));
+  r.push_back(real("time.dT", kNoDefault, "the mesh size", above(0), kUnbounded, "",
+                   "time step; an elastic ball's dry contact, 3.2181 time.V0^(-1/5) long, must "
+                   "span 4 or more"));
   {
     ParameterSpec t_end = real("time.T_end", kNoDefault, "until lift-off", above(0), kUnbounded, "",
                                "end time; inf: until lift-off");
@@ -366,7 +369,8 @@ std::vector<ParameterSpec> build_registry() {
                    "which takes part of the approach's squeeze film away: on [-3, 3]^2 the "
                    "rebound speed is 2 % lower at M = 100 and 31 % at M = 10 (widen it at the "
                    "same mesh, more points, for the flooded contact; a run warns when the film "
-                   "near the edges took more than 1 % of the impact momentum)"));
+                   "near the edges took more than 1 % of the impact momentum); an elastic "
+                   "ball's must hold its dry contact, > 1.0456 time.V0^(2/5)"));
   add_time_parameters(r);
   add_surface_parameters(r);
   add_output_parameters(r);
@@ -844,7 +848,13 @@ double Inputs::required_real(const std::string& key, const std::string& why) con
 
 void Inputs::fail(const std::string& key, const std::string& problem) const {
   const Given* g = given(key);
-  if (!g) throw ConfigError(fmt::format("{}: {}", key, problem), key);
+  if (!g) {
+    // A default the other inputs rule out: name its value as if given.
+    const ParameterSpec* spec = set_->find(key);
+    if (!spec || !spec->default_value) throw ConfigError(fmt::format("{}: {}", key, problem), key);
+    throw ConfigError(
+        fmt::format("{} = {} (the default): {}", key, spec->default_description(), problem), key);
+  }
   fail_value(key, g->text, problem, g->origin);
 }
 
@@ -878,6 +888,9 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.local_newton_half_width = in.integer("solver.local_newton");
   c.local_newton_windows = in.integer("solver.local_newton_windows");
   const int grid_points = in.integer("grid.points");
+  // The default on a grid coarser than it: the grid is its only level.
+  if (!in.has("solver.coarsest_points"))
+    c.coarsest_points = std::min(c.coarsest_points, grid_points);
   if (c.coarsest_points > grid_points) {
     in.fail("solver.coarsest_points", fmt::format("must be <= grid.points ({})", grid_points));
   }
@@ -971,9 +984,11 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                       "relaxation sweeps before the coarse-grid correction"));
   r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), kUnbounded, false,
                       "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
-  r.push_back(integer("solver.coarsest_points", defaults.coarsest_points,
-                      at_least(kMinCoarsestPoints), at_most(kMaxGridPoints), true,
-                      "points per side of the coarsest multigrid level (<= grid.points)"));
+  r.push_back(
+      integer("solver.coarsest_points", defaults.coarsest_points, at_least(kMinCoarsestPoints),
+              at_most(kMaxGridPoints), true,
+              "points per side of the coarsest multigrid level (<= grid.points; the default is "
+              "grid.points on a grid with fewer points)"));
   r.push_back(choice("solver.deformation", deformation_method_text(defaults.deformation),
                      {std::string(kFft), std::string(kDirect)},
                      "deformation integrals: fft (zero-padded FFT convolution) or direct"));
@@ -1182,6 +1197,41 @@ void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
                       largest, c.Delta0));
 }
 
+/// The fewest time steps the dry contact may span.  With fewer the contact
+/// is not resolved in time: on 33^2 and 65^2 (the default case) time.dT = 1.5
+/// to 3 (1.1 to 2.1 steps per contact) ended with exit 0 after 2 to 4 steps,
+/// one with a rebound speed above V0; time.dT = 0.8 to 1.2 (2.7 to 4)
+/// ended with a negative film, 0.7 (4.6) lifted off at 0.83 V0 (0.92 on fine
+/// grids).
+constexpr double kMinStepsPerDryContact = 4.0;
+
+/// An elastic ball's dry contact must fit into the domain, and its duration
+/// must span kMinStepsPerDryContact time steps: else the run can only fail or
+/// give a result of the discretisation (model.md, "Reference values").  A
+/// rigid ball has no dry contact.
+void check_dry_contact_resolved(const Inputs& in, const ImpactConfig& c) {
+  if (!c.elastic) return;
+  const double radius = dry_largest_contact_radius(c.V0);
+  if (!(c.half_width > radius)) {
+    in.fail("grid.half_width",
+            fmt::format("must be > {:.4g}, the largest radius of the dry contact at time.V0 = "
+                        "{:g}: the domain must hold the contact (the paper's is 1.5)",
+                        radius, c.V0));
+  }
+  const double duration = dry_contact_duration(c.V0);
+  const double largest_dT = duration / kMinStepsPerDryContact;
+  const double dT = effective_time_step(c);
+  if (dT <= largest_dT) return;
+  const std::string why = fmt::format(
+      "the dry contact at time.V0 = {:g} lasts {:.4g}, and a run needs at least {:g} steps in it",
+      c.V0, duration, kMinStepsPerDryContact);
+  if (in.has("time.dT")) in.fail("time.dT", fmt::format("must be <= {:.4g}: {}", largest_dT, why));
+  in.fail(in.has("grid.half_width") ? "grid.half_width" : "grid.points",
+          fmt::format("gives a mesh, and so a default time.dT, of {:.4g}; it must be <= {:.4g} "
+                      "({}): set time.dT or use a finer mesh",
+                      dT, largest_dT, why));
+}
+
 /// A run of more than kMaxTimeSteps steps is refused before it starts: a
 /// start far away or slow needs billions of steps (and an int overflows).
 void check_step_count(const Inputs& in, const ImpactConfig& c) {
@@ -1231,6 +1281,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.contracting_start = in.get<bool>("solver.contracting_start");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
   check_undeformed_gap(in, c);
+  check_dry_contact_resolved(in, c);
   check_step_count(in, c);
 }
 

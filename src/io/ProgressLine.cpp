@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamics/DryHertz.hpp"
+
 namespace ehlsim {
 
 namespace {
@@ -17,12 +19,13 @@ constexpr const char* kClearLine = "\r\x1b[K";  ///< carriage return + ANSI eras
 double estimate_end_time(double T, double Delta, double dDelta_dT, double T_end, double Delta0,
                          double V0) {
   if (std::isfinite(T_end)) return std::max(T_end, T);
-  const double margin = kLiftOffMargin * kDryContactDuration;
+  const double duration = dry_contact_duration(V0);
+  const double margin = kLiftOffMargin * duration;
   double estimate = 0.0;
   if (dDelta_dT > 0.0) {
     estimate = T + std::max(-Delta, 0.0) / dDelta_dT + margin;
   } else {
-    estimate = std::max(Delta0, 0.0) / V0 + kDryContactDuration + margin;
+    estimate = std::max(Delta0, 0.0) / V0 + duration + margin;
   }
   return std::max(estimate, T + margin);
 }

@@ -17,8 +17,6 @@
 
 namespace ehlsim {
 
-/// Duration of the dry Hertz impact in model units (model.md: 1.0000 -> 4.2181).
-inline constexpr double kDryContactDuration = 3.2181;
 /// Lubrication delays lift-off (the paper's M = 100, L = 10 case: 4.37 vs 4.218);
 /// the estimate adds this fraction of the dry contact duration.
 inline constexpr double kLiftOffMargin = 0.1;
@@ -26,10 +24,11 @@ inline constexpr double kLiftOffMargin = 0.1;
 /// Estimated end time of a run after the step `last`:
 ///  - T_end when it is finite (T once past it);
 ///  - before the rebound: first dry contact Delta0 / V0 plus the dry contact
-///    duration plus the margin, (Delta0/V0 + 3.2181) + 0.1 * 3.2181;
+///    duration Tc = dry_contact_duration(V0) (3.2181 at V0 = 1) plus the
+///    margin, (Delta0/V0 + Tc) + 0.1 Tc;
 ///  - during the rebound (dDelta/dT > 0): linear extrapolation of Delta back to
-///    0, T + max(-Delta, 0) / (dDelta/dT), plus the margin 0.1 * 3.2181 (the
-///    ball accelerates while the film still pushes, so this errs late);
+///    0, T + max(-Delta, 0) / (dDelta/dT), plus the margin 0.1 Tc (the ball
+///    accelerates while the film still pushes, so this errs late);
 ///  - never earlier than T + the margin when the run is not finished.
 [[nodiscard]] double estimate_end_time(double T, double Delta, double dDelta_dT, double T_end,
                                        double Delta0, double V0);
