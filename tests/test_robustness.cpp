@@ -214,9 +214,29 @@ TEST(CaseMap, ProbeWavinessDeeperThanTheGapIsBadInput) {
 TEST(CaseMap, ProbeLargeMNeedsMorePoints) {
   // M = 10000 on 65^2 used to keep h_min < 0 in 61 rows.
   TempDir dir;
-  expect_failed_run(dir, map_run(dir, 65, "--set case.M=10000"), "negative film h_min = -");
   const Result r = map_run(dir, 65, "--set case.M=10000");
-  EXPECT_NE(r.err.find("use more points (grid.points = 65)"), std::string::npos) << r.err;
+  expect_failed_run(dir, r, "negative film h_min = -");
+  EXPECT_NE(r.err.find("use more points (grid.points = 65)\n"), std::string::npos) << r.err;
+}
+
+TEST(CaseMap, ProbeTimeStepsTooLongForTheContact) {
+  // time.dT = 1.5 to 3 on 33^2 used to end with exit 0 after 2 to 4 steps
+  // (at 3 with a rebound faster than the ball arrived): the dry contact,
+  // 3.2181 long, needs 4 steps at least.
+  TempDir dir;
+  const Result refused = map_run(dir, 33, "--set time.dT=3");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_EQ(refused.err,
+            "ehlsim: error: time.dT = 3: must be <= 0.8045: the dry contact at time.V0 = 1 lasts "
+            "3.218, and a run needs at least 4 steps in it (--set)\n");
+  EXPECT_FALSE(fs::exists(dir / "run"));
+  // At 4 steps per contact M = 1000's film goes negative: the step shares the blame.
+  const Result coarse = map_run(dir, 33, "--set time.dT=0.8 --set case.M=1000");
+  expect_failed_run(dir, coarse, "negative film h_min = -");
+  EXPECT_NE(coarse.err.find("use more points (grid.points = 33), or a shorter time step (time.dT "
+                            "= 0.8, the mesh 0.09375)\n"),
+            std::string::npos)
+      << coarse.err;
 }
 
 TEST(CaseMap, ProbeRoelandsWithAHugeZEnds) {

@@ -122,12 +122,19 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
         "{}: Delta = {:.4g}, force = {:.4g} beyond the bounds of the impact energy (Delta >= "
         "{:.4g}, force <= {:.4g}): the solution diverged",
         where(r), r.Delta, r.force, b.min_delta, b.max_force));
-  if (film.h < 0.0)
+  if (film.h < 0.0) {
+    // A time step longer than the mesh (time.dT given) shares the blame.
+    const double mesh = Grid2D(c.grid_points, c.half_width).h();
+    const std::string long_step =
+        c.dT > mesh
+            ? fmt::format(", or a shorter time step (time.dT = {:g}, the mesh {:.4g})", c.dT, mesh)
+            : std::string();
     throw RunFailure(fmt::format(
         "{}: negative film h_min = {:.3g} at X = {:.4g}, Y = {:.4g} (P = {:.3g} there): the "
         "surfaces pass through each other; the grid cannot resolve this film: use more points "
-        "(grid.points = {})",
-        where(r), film.h, film.x, film.y, film.p, c.grid_points));
+        "(grid.points = {}){}",
+        where(r), film.h, film.x, film.y, film.p, c.grid_points, long_step));
+  }
 }
 
 void check_initial_state(double force, double residual, const ImpactConfig& c) {
