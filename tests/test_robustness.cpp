@@ -179,6 +179,10 @@ TEST(CaseMap, ProbeSmallMOnA33Grid) {
   // had not converged.  The hint (start further away) is tested below.
   TempDir dir;
   expect_failed_run(dir, map_run(dir, 33, "--set case.M=1"), "did not converge (residual");
+  // An overflowing film says so in words, not with a printed NaN.
+  const Result overflow = map_run(dir, 33, "--set case.M=0.01");
+  expect_failed_run(dir, overflow, "did not converge (residual not finite, force ");
+  EXPECT_EQ(overflow.err.find("nan"), std::string::npos) << overflow.err;
 }
 
 TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {

@@ -146,11 +146,14 @@ void check_initial_state(double force, double residual, const ImpactConfig& c) {
                 "lambda_bar V0 / 4 = {:.3g})",
                 c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
           : std::string();
+  const auto text = [](double v) {
+    return std::isfinite(v) ? fmt::format("{:.3g}", v) : std::string("not finite");
+  };
   throw RunFailure(fmt::format(
       "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge (residual "
-      "{:.3g}, force {:.3g}): the film is too viscous for the ball to arrive there at time.V0 = "
+      "{}, force {}): the film is too viscous for the ball to arrive there at time.V0 = "
       "{:g}{}; start further away (a larger time.Delta0)",
-      c.Delta0, residual, force, c.V0, estimate));
+      c.Delta0, text(residual), text(force), c.V0, estimate));
 }
 
 void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
