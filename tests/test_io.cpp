@@ -107,6 +107,27 @@ std::string set_error(const std::vector<std::string>& sets) {
 // Registry
 // ---------------------------------------------------------------------------
 
+TEST(RegistryErrors, AWavinessTheGridSamplesAsAnotherWaveIsRefused) {
+  // 33^2 on [-1.5, 1.5]^2: h = 3/32; along X the limit is two meshes, at 45
+  // degrees two meshes times cos 45.
+  const std::vector<std::string> wavy{"grid.points=33", "surface.waviness_amplitude=0.1"};
+  const auto with = [&](std::vector<std::string> sets) {
+    sets.insert(sets.begin(), wavy.begin(), wavy.end());
+    return sets;
+  };
+  EXPECT_EQ(set_error(with({"surface.waviness_wavelength=0.18"})),
+            "surface.waviness_wavelength = 0.18: must be > 0.1875 on this grid (two meshes along "
+            "the wave, the shortest wave the grid does not sample as another one) (--set)");
+  EXPECT_EQ(load_config(std::nullopt, with({"surface.waviness_wavelength=0.19"})).grid_points, 33);
+  EXPECT_EQ(set_error(with({"surface.waviness_wavelength=0.13", "surface.waviness_angle_deg=45"})),
+            "surface.waviness_wavelength = 0.13: must be > 0.1326 on this grid (two meshes along "
+            "the wave, the shortest wave the grid does not sample as another one) (--set)");
+  // Without an amplitude there is no wave to sample.
+  EXPECT_EQ(
+      load_config(std::nullopt, {"grid.points=33", "surface.waviness_wavelength=0.01"}).grid_points,
+      33);
+}
+
 TEST(RegistryErrors, TheDryContactMustFitTheDomainAndSpanFourTimeSteps) {
   // The largest dry contact radius is 1.0456 V0^(2/5) and the contact lasts
   // 3.2181 V0^(-1/5) (model.md, "Reference values").

@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <sstream>
 #include <system_error>
 #include <utility>
@@ -311,7 +312,8 @@ void add_surface_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("surface.waviness_amplitude", 0.0, "", at_least(0), kUnbounded, "",
                    "amplitude A_w of a cosine waviness added to H (0: smooth)"));
   r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), kUnbounded, "",
-                   "wavelength of the waviness"));
+                   "wavelength of the waviness; with an amplitude, more than two meshes along the "
+                   "wave (else the grid samples another wave)"));
   r.push_back(real("surface.waviness_angle_deg", 0.0, "", kUnbounded, kUnbounded, "deg",
                    "direction of the waviness wave vector, from the X axis"));
 }
@@ -1197,6 +1199,22 @@ void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
                       largest, c.Delta0));
 }
 
+/// A waviness the grid samples as another wave is no input the user meant:
+/// its wave vector must lie below the grid's Nyquist limit pi / h along X
+/// and along Y, so the wavelength must exceed 2 h max(|cos|, |sin|) of
+/// surface.waviness_angle_deg.
+void check_waviness_resolved(const Inputs& in, const ImpactConfig& c) {
+  if (!(c.waviness_amplitude > 0.0)) return;
+  const double angle = c.waviness_angle_deg * std::numbers::pi / 180.0;
+  const double shortest = 2.0 * Grid2D(c.grid_points, c.half_width).h() *
+                          std::max(std::abs(std::cos(angle)), std::abs(std::sin(angle)));
+  if (c.waviness_wavelength > shortest) return;
+  in.fail("surface.waviness_wavelength",
+          fmt::format("must be > {:.4g} on this grid (two meshes along the wave, the shortest "
+                      "wave the grid does not sample as another one)",
+                      shortest));
+}
+
 /// The fewest time steps the dry contact may span.  With fewer the contact
 /// is not resolved in time: on 33^2 and 65^2 (the default case) time.dT = 1.5
 /// to 3 (1.1 to 2.1 steps per contact) ended with exit 0 after 2 to 4 steps,
@@ -1280,6 +1298,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   c.force_tolerance = in.real("solver.force_tolerance");
   c.contracting_start = in.get<bool>("solver.contracting_start");
   c.use_symmetry = in.get<std::string>("solver.symmetry") == kSymmetryAuto;
+  check_waviness_resolved(in, c);
   check_undeformed_gap(in, c);
   check_dry_contact_resolved(in, c);
   check_step_count(in, c);
