@@ -184,7 +184,7 @@ struct ImpactProblem::Impl {
   /// every attempt diverged.
   StepSolve solve_time_step(int step, const RunProgress& run, double dt);
   /// The quasi-static film pressure at T = 0; returns its force.
-  double solve_initial_pressure();
+  InitialSolve solve_initial_pressure();
   /// Chooses the initial approximation of a step dt = omega x the last one
   /// (the last pressure, its extrapolation in time, or, where both are poor,
   /// the extrapolation in a contracting frame) and returns its residual.
@@ -435,7 +435,7 @@ ImpactProblem::Impl::StepSolve ImpactProblem::Impl::solve_with_retries(int step,
   return {fine.force(best.P), false, best.residual, best.cycles};
 }
 
-double ImpactProblem::Impl::solve_initial_pressure() {
+InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
   // At T = 0 the film already carries load: d(rho H)/dT = rho dDelta/dT = -V0
   // (the deformation rate is neglected: with P ~ 1e-2 at Delta0 = 1 it is
   // small, and zero for rigid bodies), so the Reynolds equation becomes
@@ -469,9 +469,11 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   reynolds::ReynoldsOperator& fine = hierarchy.finest();
   double force_before_cycle = std::numeric_limits<double>::infinity();
   const double tolerance = kInitialToleranceFactor * cfg.tolerance;
+  std::vector<double> residuals;
   for (int c = 1; c <= cfg.max_cycles; ++c) {
     const double force = fine.force(solver->solution());
     const double residual = solver->residual_norm();
+    residuals.push_back(residual);
     if (residual < tolerance && force_has_settled(force, force_before_cycle)) break;
     force_before_cycle = force;
     solver->cycle();
@@ -480,7 +482,12 @@ double ImpactProblem::Impl::solve_initial_pressure() {
   hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour);
   hierarchy.set_omega_flow_dominated(cfg.relaxation.omega_flow_dominated);
   fine.update_coefficients(solver->solution());
-  return fine.force(solver->solution());
+  InitialSolve result{fine.force(solver->solution()), solver->residual_norm()};
+  const int cycles = static_cast<int>(residuals.size());
+  if (cycles > kInitialRateCycles)
+    result.rate = std::pow(result.residual / residuals[cycles - kInitialRateCycles],
+                           1.0 / kInitialRateCycles);
+  return result;
 }
 
 ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const CycleRecord& attempt,
@@ -727,8 +734,9 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   // The ball at Delta0 moving towards the flat, with the film pressure that
   // this motion already carries (see solve_initial_pressure).
   run.ball = {0.0, cfg.Delta0, -cfg.V0, 0.0};
-  const double initial_force = solve_initial_pressure();
-  check_initial_state(initial_force, solver->residual_norm(), cfg);
+  const InitialSolve initial = solve_initial_pressure();
+  check_initial_state(initial, cfg);
+  const double initial_force = initial.force;
   run.ball.A = kForceToAcceleration * initial_force;
   const Field& H0 = hierarchy.finest().film();
   const Field& rho0 = hierarchy.finest().density();

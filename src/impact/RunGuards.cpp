@@ -137,8 +137,16 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
   }
 }
 
-void check_initial_state(double force, double residual, const ImpactConfig& c) {
+void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
+  const double force = s.force, residual = s.residual;
   if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;
+  if (std::isfinite(force) && std::isfinite(residual) && s.rate <= kStillConvergingRate) {
+    throw RunFailure(fmt::format(
+        "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} was still converging "
+        "when solver.max_cycles = {} ran out (residual {:.3g}, falling by {:.2f} per cycle, "
+        "towards solver.tolerance = {:g}): raise solver.max_cycles or solver.tolerance",
+        c.Delta0, c.max_cycles, residual, s.rate, c.tolerance));
+  }
   const std::string estimate =
       c.viscosity == ViscosityModel::Barus
           ? fmt::format(
