@@ -9,6 +9,9 @@
 namespace cli {
 
 void print_error(std::string_view message) {
+  // After what stdout holds so far, also when both go to one file (a study's
+  // case log, whose last line the study reports as the reason).
+  std::fflush(stdout);
   // Longer than PATH_MAX: no file name, a value nobody wants to read in full.
   constexpr std::size_t kLongestWord = 4096;
   std::string line;

@@ -30,7 +30,8 @@ void print_out(fmt::format_string<Args...> format, Args&&... args) {
   std::fwrite(text.data(), 1, text.size(), stdout);  // its error is the reader's
 }
 
-/// "ehlsim: error: <message>" as one line on stderr.  Words longer than any
+/// "ehlsim: error: <message>" as one line on stderr, after what stdout holds
+/// so far (as print_warnings).  Words longer than any
 /// path (a runaway value that reached the message unshortened, e.g. through
 /// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
 void print_error(std::string_view message);

@@ -475,6 +475,23 @@ TEST(Cli, StudySetAppliesToEveryCase) {
 /// The whole study on a 33^2 grid (about 3 s): four impacts, their spike
 /// files, the two rolling runs of the similarity figure (65^2), the dry
 /// reference, and the figures when Debian's Python has matplotlib.
+TEST(Cli, AStudysFailedCaseIsReportedWithItsError) {
+  // On 9^2 the rolling films go negative.  The case's log has its progress
+  // lines (stdout) and its error (stderr): the error must come last, since
+  // the study reports the log's last line as the reason.
+  TempDir dir;
+  const fs::path out = dir / "study";
+  const Result r =
+      ehlsim("study --grid 9 --rolling-grid 9 --no-plots --out " + quote(out.string()));
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("  FAILED   rolling M = 20 after "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(exit 1): ehlsim: error: the film is negative"), std::string::npos)
+      << r.out;
+  const std::string log = read_file(out / "logs" / "rolling_M20.log");
+  EXPECT_NE(log.find(" cycle "), std::string::npos) << log;
+  EXPECT_GT(log.rfind("ehlsim: error: "), log.rfind(" cycle ")) << log;
+}
+
 TEST(Cli, TinyStudy) {
   TempDir dir;
   const fs::path out = dir / "study";
