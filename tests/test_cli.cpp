@@ -382,6 +382,14 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set case.M=3"),
                    "--set 'case.M=3': only spike.* keys apply to an analysis of a finished run");
+  // A rolling run has a run.json and a fields.nc, but no spike to track.
+  const fs::path rolling = dir / "rolling";
+  ASSERT_EQ(
+      ehlsim("rolling --quiet --set grid.points=33 --out " + quote(rolling.string())).exit_code, 0);
+  expect_bad_input(ehlsim("spike --quiet " + quote(rolling.string())),
+                   "cannot analyse '" + (rolling / "run.json").string() +
+                       "': a run of `ehlsim rolling`; ehlsim spike analyses runs of `ehlsim "
+                       "impact`");
 }
 
 TEST(Cli, SpikeFilesOfARun) {

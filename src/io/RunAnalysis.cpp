@@ -63,6 +63,19 @@ std::vector<std::string> spike_overrides(const nlohmann::json& run,
   return out;
 }
 
+/// Throws ConfigError when run.json says that another command wrote it
+/// (`ehlsim rolling` writes one too); without the key the parameters decide.
+void check_impact_run(const nlohmann::json& run, const std::filesystem::path& path) {
+  if (!run.is_object()) return;
+  const auto program = run.find("program");
+  if (program == run.end() || !program->is_object()) return;
+  const auto command = program->find("command");
+  if (command == program->end() || !command->is_string() || *command == "impact") return;
+  throw ConfigError(fmt::format(
+      "cannot analyse '{}': a run of `ehlsim {}`; ehlsim spike analyses runs of `ehlsim impact`",
+      path.string(), echo_input(command->get<std::string>())));
+}
+
 double run_parameter(const nlohmann::json& run, const char* section, const char* key,
                      const std::filesystem::path& path) {
   try {
@@ -94,6 +107,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
                                  const std::vector<std::string>& overrides) {
   const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
   const nlohmann::json run = read_run_json(run_file);
+  check_impact_run(run, run_file);
   const SpikeSettings settings = load_config(std::nullopt, spike_overrides(run, overrides)).spike;
   const DryContactRadius dry(run_parameter(run, "time", "Delta0", run_file),
                              run_parameter(run, "time", "V0", run_file));
