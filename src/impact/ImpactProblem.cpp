@@ -183,7 +183,8 @@ struct ImpactProblem::Impl {
   /// Solves the interval dt from the last time level of `run`.  Throws if
   /// every attempt diverged.
   StepSolve solve_time_step(int step, const RunProgress& run, double dt);
-  /// The quasi-static film pressure at T = 0; returns its force.
+  /// The quasi-static film pressure at T = 0; returns its force, residual and
+  /// the rate of its last cycles (check_initial_state judges them).
   InitialSolve solve_initial_pressure();
   /// Chooses the initial approximation of a step dt = omega x the last one
   /// (the last pressure, its extrapolation in time, or, where both are poor,
@@ -819,9 +820,9 @@ std::pair<StepRecord, std::optional<RunOutcome>> ImpactProblem::Impl::solve_step
     const StepRecord record = make_record(step, run.ball, run.force_now, work_before);
     return {record, check_step_end(record, run)};
   } catch (const RunFailure& e) {
-    const std::string message = with_domain_note(e.what(), summary.edge_impulse, cfg);
-    if (message == e.what()) throw;
-    throw RunFailure(message);
+    const std::string note = domain_note(summary.edge_impulse, cfg);
+    if (note.empty()) throw;
+    throw RunFailure(fmt::format("{}; by then {}", e.what(), note));
   }
 }
 

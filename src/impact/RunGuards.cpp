@@ -193,12 +193,6 @@ std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig
   return {std::move(note)};
 }
 
-std::string with_domain_note(const std::string& message, double edge_impulse,
-                             const ImpactConfig& c) {
-  const std::string note = domain_note(edge_impulse, c);
-  return note.empty() ? message : fmt::format("{}; by then {}", message, note);
-}
-
 bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {
   return 0.5 * V * V + elastic_energy <= b.rest_energy;
 }

@@ -82,6 +82,7 @@ struct InitialSolve {
   /// kInitialRateCycles cycles (1 with fewer cycles).
   double rate = 1.0;
 };
+/// The last cycles of the solve at T = 0 over which InitialSolve::rate is taken.
 inline constexpr int kInitialRateCycles = 5;
 /// A solve at T = 0 whose residual still fell this fast ran out of cycles,
 /// and did not stall.  Between the two measured kinds: the default case on
@@ -122,10 +123,5 @@ inline constexpr double kEdgeImpulseWarning = 0.01;
 /// What a finished run should tell its user about its domain: domain_note's
 /// sentence, or nothing.
 [[nodiscard]] std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c);
-
-/// A failure's message with domain_note of the edge impulse so far appended:
-/// a run that fails while its squeeze film reaches the edges should say so.
-[[nodiscard]] std::string with_domain_note(const std::string& message, double edge_impulse,
-                                           const ImpactConfig& c);
 
 }  // namespace ehlsim
