@@ -285,8 +285,8 @@ void add_physical_case_parameters(std::vector<ParameterSpec>& r) {
 /// [time]: step, end, step cap and the start of the ball.
 void add_time_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("time.dT", kNoDefault, "the mesh size", above(0), kUnbounded, "",
-                   "time step; an elastic ball's dry contact, 3.2181 time.V0^(-1/5) long, must "
-                   "span 4 or more"));
+                   "time step; at most a quarter of an elastic ball's dry contact, 3.2181 "
+                   "time.V0^(-1/5) long"));
   {
     ParameterSpec t_end = real("time.T_end", kNoDefault, "until lift-off", above(0), kUnbounded, "",
                                "end time; inf: until lift-off");
@@ -371,8 +371,8 @@ std::vector<ParameterSpec> build_registry() {
                    "which takes part of the approach's squeeze film away: on [-3, 3]^2 the "
                    "rebound speed is 2 % lower at M = 100 and 31 % at M = 10 (widen it at the "
                    "same mesh, more points, for the flooded contact; a run warns when the film "
-                   "near the edges took more than 1 % of the impact momentum); an elastic "
-                   "ball's must hold its dry contact, > 1.0456 time.V0^(2/5)"));
+                   "near the edges took more than 1 % of the impact momentum); for an elastic "
+                   "ball it must hold the dry contact: > 1.0456 time.V0^(2/5)"));
   add_time_parameters(r);
   add_surface_parameters(r);
   add_output_parameters(r);
