@@ -206,6 +206,27 @@ Result tiny_run(const fs::path& run, const std::string& options) {
                 " --out " + quote(run.string()));
 }
 
+TEST(Cli, AnOutNameMustLeaveRoomForTheFilesBesideIt) {
+  // NAME_MAX is 255: "NAME.checkpoint.nc.part" beside the run directory
+  // takes 19 bytes more than NAME.  A 250-byte name used to fail at its lock
+  // file ("File name too long", exit 1), a 241-byte one at its checkpoint.
+  TempDir dir;
+  const fs::path longest = dir / std::string(236, 'x');
+  const Result ok = tiny_run(longest, "--set time.T_end=0.2 --set output.checkpoint_every=1");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(longest / "checkpoint.nc"));
+  const fs::path too_long = dir / std::string(237, 'x');
+  const std::string message =
+      "--out '" + too_long.string() +
+      "': a name of 237 bytes is too long: ehlsim writes '.NAME.part-PID' and "
+      "'NAME.checkpoint.nc.part' beside the run directory, so its name may have at most 236 bytes";
+  expect_bad_input(ehlsim("impact --set grid.points=33 --out " + quote(too_long.string())),
+                   message);
+  expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(too_long.string())),
+                   message);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
 TEST(Cli, MemoryGuardRefusesAHugeGridAtOnce) {
   TempDir dir;
   const fs::path out = dir / "run";

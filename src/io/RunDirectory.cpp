@@ -11,6 +11,7 @@
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <climits>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -37,6 +38,8 @@ constexpr std::string_view kOldInfix = ".old-";
 constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
 constexpr std::size_t kHostNameLength = 256;
 constexpr std::size_t kLockTextLength = 512;
+/// Digits of a process id: Linux's pid_max is at most 2^22 (7 digits).
+constexpr std::size_t kLongestPidDigits = 7;
 /// Links followed from --out before a chain counts as a loop (Linux's own limit, ELOOP).
 constexpr int kMaxLinkHops = 40;
 
@@ -194,6 +197,23 @@ void carry_over(const fs::path& from, const fs::path& to,
   for (const fs::path& directory : directories) sync_path(directory);
 }
 
+/// A run directory's name must leave room for the names ehlsim gives the
+/// files beside it (".NAME.part-PID", ".NAME.old-PID", ".NAME.lock",
+/// "NAME.checkpoint.nc" and its partial file) within NAME_MAX bytes (255 on
+/// Linux's file systems): else a legal name fails there with ENAMETOOLONG.
+void check_name_leaves_room(const fs::path& absolute, const fs::path& shown) {
+  const std::size_t extra = std::max(
+      {1 + kStagingInfix.size() + kLongestPidDigits, 1 + kOldInfix.size() + kLongestPidDigits,
+       1 + kLockSuffix.size(), kCheckpointSuffix.size() + std::strlen(PartialFile::kSuffix)});
+  const std::size_t length = absolute.filename().string().size();
+  if (length + extra <= NAME_MAX) return;
+  throw ConfigError(fmt::format("--out '{}': a name of {} bytes is too long: ehlsim writes "
+                                "'.NAME.part-PID' and 'NAME.checkpoint.nc.part' beside the run "
+                                "directory, so its name may have at most {} bytes",
+                                shown.string(), length, NAME_MAX - extra),
+                    "--out");
+}
+
 /// Creates the missing parents of `absolute` (--out `shown`): ConfigError when
 /// one of them is a file, std::runtime_error naming the reason otherwise.
 void create_parent_directories(const fs::path& absolute, const fs::path& shown) {
@@ -323,6 +343,7 @@ fs::path resolve_run_directory(const fs::path& target) {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
+  check_name_leaves_room(absolute, target);
   create_parent_directories(absolute, target);
   return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
 }
