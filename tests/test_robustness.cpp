@@ -12,6 +12,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <sstream>
 #include <string>
 
 #include "dynamics/DryHertz.hpp"
@@ -368,6 +369,31 @@ TEST(DomainEdges, ARunWhoseSqueezeFilmReachesTheEdgesSaysSoAndItsResultMoves) {
   const Result quiet = map_run(dir, 65, "--set case.M=10");
   EXPECT_EQ(quiet.err, "");
   EXPECT_EQ(results_of(dir).at("warnings").size(), 1u);
+}
+
+TEST(HalvedSteps, AQuarterThatWouldEndTheRunIsHalvedFurther) {
+  // M = 100, L = 40 on 129^2: the step to T = 3.914 (the pocket's collapse)
+  // converged in none of its quarters (residual 1.8e-3, beyond the 100 times
+  // solver.tolerance a run keeps) and ended the run with exit 1.  Its
+  // quarters are now halved further, down to dT / 16, and every step converges.
+  TempDir dir;
+  const Result r = map_run(dir, 129, "--set case.L=40");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json res = results_of(dir);
+  EXPECT_EQ(res.at("outcome"), "lift_off");
+  EXPECT_EQ(res.at("unconverged_steps"), 0);
+  const double dT = 3.0 / 128.0;
+  // convergence.csv: step,T,dt,attempt,damping,cycle,residual
+  std::istringstream csv(read_file(dir / "run" / "convergence.csv"));
+  std::string line;
+  std::getline(csv, line);
+  double shortest = dT;
+  while (std::getline(csv, line)) {
+    const std::size_t first = line.find(','), second = line.find(',', first + 1);
+    shortest = std::min(shortest, std::stod(line.substr(second + 1)));
+  }
+  EXPECT_LT(shortest, 0.25 * dT * (1.0 - 1e-9));
+  EXPECT_GE(shortest, dT / 16.0 * (1.0 - 1e-9));
 }
 
 TEST(CaseMap, TheStepCapEndsARunUntilLiftOff) {
