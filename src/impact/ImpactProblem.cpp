@@ -596,7 +596,7 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     if (depth == kRescueSplitDepth) throw;
   }
   const bool would_end_run =
-      !solved || (!solved->converged && solved->residual > run.bounds.max_residual);
+      !solved || (!solved->converged && !(solved->residual <= run.bounds.max_residual));
   const int deepest = would_end_run ? kRescueSplitDepth : kMaxSplitDepth;
   if (!solved || (!solved->converged && depth < deepest)) {
     // Half the time step halves the distance the pocket-collapse spike moves
