@@ -171,6 +171,17 @@ void expect_failed_run(const TempDir& dir, const Result& r, const std::string& r
   }
 }
 
+/// Exit 2 with the one line `message`, in well under a second of work.
+void expect_refused_at_once(const std::string& args, const std::string& message) {
+  const auto start = std::chrono::steady_clock::now();
+  const Result r = ehlsim("impact --quiet " + args);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: " + message + "\n");
+  EXPECT_LT(seconds, 10.0);  // a loaded machine; the refusal itself takes milliseconds
+}
+
 nlohmann::json results_of(const TempDir& dir) {
   return nlohmann::json::parse(read_file(dir / "run" / "run.json")).at("results");
 }
@@ -238,11 +249,10 @@ TEST(CaseMap, ProbeTimeStepsTooLongForTheContact) {
   // (at 3 with a rebound faster than the ball arrived): the dry contact,
   // 3.2181 long, needs 4 steps at least.
   TempDir dir;
-  const Result refused = map_run(dir, 33, "--set time.dT=3");
-  EXPECT_EQ(refused.exit_code, 2);
-  EXPECT_EQ(refused.err,
-            "ehlsim: error: time.dT = 3: must be <= 0.8045: the dry contact at time.V0 = 1 lasts "
-            "3.218, and a run needs at least 4 steps in it (--set)\n");
+  expect_refused_at_once(
+      "--set grid.points=33 --set time.dT=3 --out " + quote((dir / "run").string()),
+      "time.dT = 3: must be <= 0.8045: the dry contact at time.V0 = 1 lasts "
+      "3.218, and a run needs at least 4 steps in it (--set)");
   EXPECT_FALSE(fs::exists(dir / "run"));
   // At 4 steps per contact M = 1000's film goes negative: the step shares the blame.
   const Result coarse = map_run(dir, 33, "--set time.dT=0.8 --set case.M=1000");
@@ -428,17 +438,6 @@ TEST(CaseMap, TheStepCapEndsARunUntilLiftOff) {
 // ---------------------------------------------------------------------------
 // Runaway inputs (issue 10): a start far away or slow
 // ---------------------------------------------------------------------------
-
-/// Exit 2 with the one line `message`, in well under a second of work.
-void expect_refused_at_once(const std::string& args, const std::string& message) {
-  const auto start = std::chrono::steady_clock::now();
-  const Result r = ehlsim("impact --quiet " + args);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err, "ehlsim: error: " + message + "\n");
-  EXPECT_LT(seconds, 10.0);  // a loaded machine; the refusal itself takes milliseconds
-}
 
 TEST(RunawayInputs, AStartTooSlowOrTooFarIsRefusedBeforeAnyWork) {
   // Both grew the dry-Hertz table at 400 MB/s before.
