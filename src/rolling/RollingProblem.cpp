@@ -15,6 +15,7 @@
 #include "multigrid/Fas.hpp"
 #include "reynolds/LocalNewton.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
+#include "rolling/DryEllipticHertz.hpp"
 #include "rolling/FilmFormula.hpp"
 
 namespace ehlsim {
@@ -160,7 +161,7 @@ Grid2D RollingProblem::grid_of(const RollingConfig& c) {
 struct RollingProblem::Impl {
   explicit Impl(const RollingConfig& config);
 
-  /// The Hertz pressure on the coarsest grid and H0 from the film formula.
+  /// The dry Hertz pressure on the coarsest grid and H0 from the film formula.
   void start_from_hertz();
   /// A solution of a stage and its residual.
   struct Iterate {
@@ -217,10 +218,11 @@ void RollingProblem::Impl::start_from_hertz() {
   ReynoldsFasLevel& level = hierarchy.level(coarsest);
   const Grid2D& g = level.grid();
   Field& P = solver->solution(coarsest);
+  const EllipticHertzContact hz = dry_elliptic_hertz(cfg.D);
   for (int j = 1; j < g.n - 1; ++j) {
     for (int i = 1; i < g.n - 1; ++i) {
-      const double x = g.x(i), y = g.y(j);
-      P(i, j) = std::sqrt(std::max(0.0, 1.0 - x * x - cfg.D * y * y));
+      const double x = g.x(i) / hz.ax, y = g.y(j) / hz.ay;
+      P(i, j) = hz.p0 * std::sqrt(std::max(0.0, 1.0 - x * x - y * y));
     }
   }
   // H0 puts the central film of the Hertz pressure at the formula's value.
