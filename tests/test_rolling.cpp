@@ -176,6 +176,26 @@ TEST(Rolling, AContactWideAcrossTheRollingStartsFromItsOwnHertzEllipse) {
   EXPECT_NEAR(hertz_to_moes_film(r.Hc, 100) / nvm_central_film(100, 10, 0.2), 1.0, 0.04);
 }
 
+TEST(Rolling, AWideDomainStartsItsFullMultigridWhereTheContactIsResolved) {
+  // A ball on a domain four times the default one (24 a wide): on 17^2 the
+  // Hertz circle lies within 0.67 meshes of the centre, and the run started
+  // there diverged at the third cycle of its 33^2 stage.  Started on 33^2
+  // (1.3 meshes) it converges, and at the mesh of the default domain on
+  // 65^2 (0.094) its film is that domain's within 0.5 % (measured 0.34 %;
+  // 0.30 % on a domain twice the default): the default domain holds the film.
+  RollingConfig wide = rolling_case(100, 10, 257);
+  wide.x_min = -18.0;
+  wide.x_max = 6.0;
+  wide.y_min = -12.0;
+  wide.y_max = 12.0;
+  const RollingResult r = solve(wide);
+  ASSERT_FALSE(r.history.empty());
+  EXPECT_EQ(r.history.front().points, 33);
+  EXPECT_LT(r.residual, wide.tolerance);
+  const RollingResult usual = solve(rolling_case(100, 10, 65));
+  EXPECT_NEAR(r.Hc / usual.Hc, 1.0, 0.005);
+}
+
 TEST(Rolling, CentralFilmIsSecondOrderInSpace) {
   double hc[3];
   const int points[3] = {65, 129, 257};

@@ -37,6 +37,14 @@ constexpr double kRigidForceExponent = 2.0;
 /// The force ratio of the rigid update is clipped to [1/kRigidForceRatio,
 /// kRigidForceRatio]: no more than a 16-fold change of H0 per cycle.
 constexpr double kRigidForceRatio = 4.0;
+/// The full multigrid starts on the coarsest grid whose mesh is at most the
+/// dry contact's smaller semi-axis over this: on a coarser grid the contact
+/// lies between a few points.  D = 0.1, M = 20 on a domain four times the
+/// default (24 a wide, 1025^2) diverged at the third cycle of its 33^2 stage,
+/// where the semi-axis along X (0.648) is 0.86 meshes; started on 65^2 (1.7
+/// meshes) it converges.  The default ball starts on 17^2 (2.7 meshes), D =
+/// 4 there with 1.3 meshes across the rolling.
+constexpr double kStartMeshesPerSemiAxis = 1.0;
 /// A stage whose residual grows this far above its first cycle's has diverged.
 constexpr double kDivergenceFactor = 1e3;
 /// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
@@ -161,8 +169,10 @@ Grid2D RollingProblem::grid_of(const RollingConfig& c) {
 struct RollingProblem::Impl {
   explicit Impl(const RollingConfig& config);
 
-  /// The dry Hertz pressure on the coarsest grid and H0 from the film formula.
-  void start_from_hertz();
+  /// The level the full multigrid starts on (kStartMeshesPerSemiAxis).
+  [[nodiscard]] int start_level();
+  /// The dry Hertz pressure on `level` and H0 from the film formula.
+  void start_from_hertz(int level);
   /// A solution of a stage and its residual.
   struct Iterate {
     Field P;
@@ -213,11 +223,20 @@ void RollingProblem::Impl::set_h0(double H0) {
   hierarchy.set_delta(H0);
 }
 
-void RollingProblem::Impl::start_from_hertz() {
-  const int coarsest = solver->num_levels() - 1;
-  ReynoldsFasLevel& level = hierarchy.level(coarsest);
+int RollingProblem::Impl::start_level() {
+  const EllipticHertzContact hz = dry_elliptic_hertz(cfg.D);
+  const double largest_mesh = std::min(hz.ax, hz.ay) / kStartMeshesPerSemiAxis;
+  int level = solver->num_levels() - 1;
+  // A rigid contact has no dry ellipse: its start is rough on any grid.
+  if (!cfg.elastic) return level;
+  while (level > 0 && hierarchy.level(level).grid().h() > largest_mesh) --level;
+  return level;
+}
+
+void RollingProblem::Impl::start_from_hertz(int start) {
+  ReynoldsFasLevel& level = hierarchy.level(start);
   const Grid2D& g = level.grid();
-  Field& P = solver->solution(coarsest);
+  Field& P = solver->solution(start);
   const EllipticHertzContact hz = dry_elliptic_hertz(cfg.D);
   for (int j = 1; j < g.n - 1; ++j) {
     for (int i = 1; i < g.n - 1; ++i) {
@@ -443,11 +462,11 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor) {
 
 RollingResult RollingProblem::solve(const CycleMonitor& monitor) {
   Impl& s = *impl_;
-  s.start_from_hertz();
-  const int coarsest = s.solver->num_levels() - 1;
+  const int start = s.start_level();
+  s.start_from_hertz(start);
   bool converged = false;
-  for (int level = coarsest; level >= 0; --level) {
-    if (level < coarsest) s.solver->interpolate_solution(level);
+  for (int level = start; level >= 0; --level) {
+    if (level < start) s.solver->interpolate_solution(level);
     converged = s.solve_stage(level, level == 0 ? s.cfg.max_cycles : s.cfg.fmg_cycles, monitor);
   }
   if (!converged) {
