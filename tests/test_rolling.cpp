@@ -111,6 +111,29 @@ TEST(Rolling, EllipticHertzHasTheBallAsItsCircularLimit) {
   EXPECT_NEAR(slender.p0, 1.27663, 1e-4);
 }
 
+TEST(Rolling, EllipticHertzStaysFiniteAndMonotonicOverEveryD) {
+  // From D = 1e-295 to 1e295 the ellipse lengthens along X with D and narrows
+  // across it, carries the load (p0 ax ay = 1) and has no NaN: the complete
+  // integrals switch to their expansions where std's modulus rounds to 1
+  // (B / A below 1e-3, near D = 1.2e5), and there the semi-axes are smooth.
+  // (Beyond about 1e297 the axis ratio stays at its bound, 1e-150.)
+  EllipticHertzContact previous = dry_elliptic_hertz(1e-295);
+  for (double D = 1e-294; D < 1e295; D *= 10.0) {
+    const EllipticHertzContact hz = dry_elliptic_hertz(D);
+    ASSERT_TRUE(std::isfinite(hz.ax) && std::isfinite(hz.ay) && std::isfinite(hz.p0)) << D;
+    EXPECT_GE(hz.ax, previous.ax) << D;
+    EXPECT_LE(hz.ay, previous.ay) << D;
+    EXPECT_NEAR(hz.p0 * hz.ax * hz.ay, 1.0, 1e-12) << D;
+    previous = hz;
+  }
+  for (const double D : {1.0e5, 1.2e5, 1.5e5, 2.0e5}) {
+    const EllipticHertzContact below = dry_elliptic_hertz(D * (1.0 - 1e-6));
+    const EllipticHertzContact above = dry_elliptic_hertz(D * (1.0 + 1e-6));
+    EXPECT_NEAR(above.ax / below.ax, 1.0, 1e-6) << D;
+    EXPECT_NEAR(above.ay / below.ay, 1.0, 2e-6) << D;
+  }
+}
+
 TEST(Rolling, PhysicalEllipticCaseUsesRxForTheMoesGroupsAndHertzUnits) {
   // model.md, "Steady rolling point contact": D = Rx/Ry, U and W on Rx, and
   // lambda_bar = 6 eta0 u_s Rx^2/(a^3 ph) with the Hertz units of the ball of
@@ -596,6 +619,12 @@ TEST(RollingCli, ADomainThatCannotHoldTheDryContactIsRefused) {
                           "contact at Rx / Ry = 0.05 reaches 3.913 across it (Y)"),
             std::string::npos)
       << wide.err;
+  // Beyond any contact, still a number: D = 1e300 reaches X = 7.607.
+  const auto extreme = testing::ehlsim("rolling --quiet --set case.D=1e300 --out /nonexistent/x");
+  EXPECT_EQ(extreme.exit_code, 2);
+  EXPECT_NE(extreme.err.find("grid.x_min = -4.5 (the default): must be < -7.607"),
+            std::string::npos)
+      << extreme.err;
   // The contacts of docs/validation.md (D = 0.25 to 4) fit the default
   // domain, and a rigid body, which has no dry contact, may take a small one.
   for (const char* D : {"0.25", "0.5", "2", "4"})

@@ -12,7 +12,8 @@ struct EllipticHertzContact {
 
 /// Hertz's contact of the gap X^2/2 + D Y^2/2 under the load Int P = 2 pi / 3
 /// with the deformation (2/pi^2) Int P / r (D = Rx / Ry > 0): for D = 1 the
-/// unit circle with p0 = 1.
+/// unit circle with p0 = 1.  Beyond D or 1 / D of about 3e297 the axis ratio
+/// stays at 1e-150 (finite, and far outside any domain).
 [[nodiscard]] EllipticHertzContact dry_elliptic_hertz(double D);
 
 }  // namespace ehlsim
