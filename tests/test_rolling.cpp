@@ -591,7 +591,7 @@ TEST(RollingCli, RejectsANonSquareDomain) {
   EXPECT_NE(r.err.find("must equal x_max - x_min"), std::string::npos) << r.err;
 }
 
-TEST(RollingCli, ADomainThatCannotHoldTheDryContactIsRefused) {
+TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
   // The dry Hertz contact must fit into the domain (io/RollingParameters):
   // a ball needs |x_min|, x_max, |y_min|, y_max > 1.  In [-0.8, 0.8]^2 the
   // run used to end after solver.max_cycles with 35 % of the load at the
@@ -619,6 +619,23 @@ TEST(RollingCli, ADomainThatCannotHoldTheDryContactIsRefused) {
                           "contact at Rx / Ry = 0.05 reaches 3.913 across it (Y)"),
             std::string::npos)
       << wide.err;
+  // The finest grid must resolve the ellipse: a domain 2000 wide on 65^2 ran
+  // 200 cycles to a force error of -1.
+  const auto coarse = testing::ehlsim(
+      "rolling --quiet --set grid.points=65 --set grid.x_min=-1000 --set grid.x_max=1000 --set "
+      "grid.y_min=-1000 --set grid.y_max=1000 --out /nonexistent/x");
+  EXPECT_EQ(coarse.exit_code, 2);
+  EXPECT_NE(coarse.err.find("grid.points = 65: the mesh, 31.25, is wider than the dry Hertz "
+                            "contact's smaller semi-axis, 1, at case.D = 1: use at least 2049 "
+                            "points or a smaller domain"),
+            std::string::npos)
+      << coarse.err;
+  const auto slender_coarse =
+      testing::ehlsim("rolling --quiet --set case.D=30 --set grid.points=9 --out /nonexistent/x");
+  EXPECT_EQ(slender_coarse.exit_code, 2);
+  EXPECT_NE(slender_coarse.err.find("semi-axis, 0.1677, at case.D = 30: use at least 65 points"),
+            std::string::npos)
+      << slender_coarse.err;
   // Beyond any contact, still a number: D = 1e300 reaches X = 7.607.
   const auto extreme = testing::ehlsim("rolling --quiet --set case.D=1e300 --out /nonexistent/x");
   EXPECT_EQ(extreme.exit_code, 2);

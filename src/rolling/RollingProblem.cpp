@@ -161,6 +161,11 @@ double formula_central_film(const RollingConfig& c) {
 
 }  // namespace
 
+double widest_resolving_mesh(const RollingConfig& config) {
+  const EllipticHertzContact hz = dry_elliptic_hertz(config.D);
+  return std::min(hz.ax, hz.ay) / kStartMeshesPerSemiAxis;
+}
+
 Grid2D RollingProblem::grid_of(const RollingConfig& c) {
   const double half = 0.5 * (c.x_max - c.x_min);
   return Grid2D(c.grid_points, half, false, {0.5 * (c.x_min + c.x_max), 0.5 * (c.y_min + c.y_max)});
@@ -224,12 +229,11 @@ void RollingProblem::Impl::set_h0(double H0) {
 }
 
 int RollingProblem::Impl::start_level() {
-  const EllipticHertzContact hz = dry_elliptic_hertz(cfg.D);
-  const double largest_mesh = std::min(hz.ax, hz.ay) / kStartMeshesPerSemiAxis;
   int level = solver->num_levels() - 1;
   // A rigid contact has no dry ellipse: its start is rough on any grid.
   if (!cfg.elastic) return level;
-  while (level > 0 && hierarchy.level(level).grid().h() > largest_mesh) --level;
+  const double widest = widest_resolving_mesh(cfg);
+  while (level > 0 && hierarchy.level(level).grid().h() > widest) --level;
   return level;
 }
 

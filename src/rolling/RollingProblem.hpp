@@ -71,6 +71,12 @@ class RollingProblem {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The widest mesh on which the dry Hertz ellipse of an elastic contact is
+/// resolved: its smaller semi-axis (one mesh; RollingProblem.cpp says why).
+/// The full multigrid starts on the coarsest grid this fine; a finest grid
+/// coarser than this is bad input.
+[[nodiscard]] double widest_resolving_mesh(const RollingConfig& config);
+
 /// The force balance of the Hertz units: Int P dX dY = 2 pi / 3.
 inline constexpr double kRollingLoad = 2.0 * std::numbers::pi / 3.0;
 
