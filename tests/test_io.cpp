@@ -161,6 +161,27 @@ TEST(RegistryErrors, TheDryContactMustFitTheDomainAndSpanFourTimeSteps) {
             0.5);
 }
 
+TEST(RegistryErrors, MoesGroupsMustBeNumbers) {
+  // case.M = 1e300 gives lambda_bar = (128 pi^3 / (3 M^4))^(1/3) = 0: the run
+  // diverged at step 11 with "residual -nan".  In SI units a radius of
+  // 1e300 m gives W = 0 and M = 0 x inf: named by the section.
+  EXPECT_EQ(set_error({"case.M=1e300"}),
+            "case.M = 1e+300: gives M = 1e+300, L = 10, lambda_bar = 0 and alpha_bar = "
+            "3.64374e+100, which must be finite numbers (M and lambda_bar > 0, L and alpha_bar "
+            ">= 0) (--set)");
+  EXPECT_NE(
+      set_error({"case.lambda_bar=1e-300"}).find("case.lambda_bar = 1e-300: gives M = not finite"),
+      std::string::npos);
+  EXPECT_EQ(
+      set_error({"physical.reduced_radius=1e300", "physical.ball_mass=1", "physical.impact_speed=1",
+                 "physical.reduced_modulus=2.2e11", "physical.eta0=0.04", "physical.alpha=2e-8"})
+          .rfind("physical: the section's values give M = 0, L = not finite", 0),
+      0u);
+  // The paper's range is far inside: M = 1e-3 and 1e6 load.
+  EXPECT_NO_THROW((void)load_config(std::nullopt, {"case.M=1e-3"}));
+  EXPECT_NO_THROW((void)load_config(std::nullopt, {"case.M=1e6"}));
+}
+
 TEST(Registry, KeysAreUniqueDocumentedAndInKnownSections) {
   std::set<std::string> keys;
   std::set<std::string> sections;

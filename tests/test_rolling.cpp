@@ -558,6 +558,14 @@ TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
       << message;
 }
 
+TEST(Rolling, ANonFiniteResidualIsNamedSo) {
+  // L = 1e308 (alpha_bar 4e307): the first cycles overflow the viscosity.
+  // The message said "residual -nan".
+  const std::string message =
+      failure_message(load_rolling_config(std::nullopt, {"case.L=1e308", "grid.points=33"}));
+  EXPECT_NE(message.find("(residual not finite, force error"), std::string::npos) << message;
+}
+
 TEST(RollingCli, PrintsAndRecordsTheWarnings) {
   const testing::TempDir dir("rolling-warning");
   const auto r =
@@ -623,6 +631,14 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "semi-axis, 1, at case.D = 1: use at least 2049 points or a smaller domain");
   expect_refused("--set case.D=30 --set grid.points=9",
                  "semi-axis, 0.1677, at case.D = 30: use at least 65 points");
+  // Moes groups out of double precision (W = 0, M = 0 x inf = NaN).
+  expect_refused(
+      "--set physical.Rx=1e300 --set physical.load=10 --set physical.u1=1 --set physical.u2=1 "
+      "--set physical.reduced_modulus=2.2e11 --set physical.eta0=0.04 --set physical.alpha=2e-8",
+      "physical: the section's values give M = not finite, L = 0, lambda_bar = not finite");
+  expect_refused("--set case.M=1e-300",
+                 "case.M = 1e-300: gives M = 1e-300, L = 10, lambda_bar "
+                 "= not finite");
   // Beyond any contact, still a number: D = 1e300 reaches X = 7.607.
   expect_refused("--set case.D=1e300", "grid.x_min = -4.5 (the default): must be < -7.607");
   // The contacts of docs/validation.md (D = 0.25 to 4) fit the default

@@ -19,6 +19,7 @@
 #include "dynamics/Bdf.hpp"
 #include "dynamics/Newmark.hpp"
 #include "grid/EdgeBand.hpp"
+#include "grid/NumberText.hpp"
 #include "impact/AttemptPolicy.hpp"
 #include "impact/PressurePredictor.hpp"
 #include "impact/RunGuards.hpp"
@@ -519,10 +520,11 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
     report.residual = residual;
     if (cycle_observer) cycle_observer->on_cycle(report);
     if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
-      throw RunFailure(fmt::format(
-          "time step {} (T = {:.5f}): the multigrid iteration diverged (residual {:.3e}, "
-          "{:.3e} at the start of the step)",
-          step, ball.T + newmark.dT(), residual, initial_residual));
+      throw RunFailure(
+          fmt::format("time step {} (T = {:.5f}): the multigrid iteration diverged (residual {}, "
+                      "{} at the start of the step)",
+                      step, ball.T + newmark.dT(), finite_or_text(residual, "{:.3e}"),
+                      finite_or_text(initial_residual, "{:.3e}")));
     if (residual < best.residual) {
       best.P = solver->solution();
       best.residual = residual;

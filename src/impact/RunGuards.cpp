@@ -11,6 +11,7 @@
 
 #include "dynamics/DryHertz.hpp"
 #include "grid/FieldExtrema.hpp"
+#include "grid/NumberText.hpp"
 #include "reynolds/ReynoldsOperator.hpp"
 
 namespace ehlsim {
@@ -154,14 +155,12 @@ void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
                 "lambda_bar V0 / 4 = {:.3g})",
                 c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
           : std::string();
-  const auto text = [](double v) {
-    return std::isfinite(v) ? fmt::format("{:.3g}", v) : std::string("not finite");
-  };
   throw RunFailure(fmt::format(
       "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge (residual "
       "{}, force {}): the film is too viscous for the ball to arrive there at time.V0 = "
       "{:g}{}; start further away (a larger time.Delta0)",
-      c.Delta0, text(residual), text(force), c.V0, estimate));
+      c.Delta0, finite_or_text(residual, "{:.3g}"), finite_or_text(force, "{:.3g}"), c.V0,
+      estimate));
 }
 
 void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "impact/Scaling.hpp"
 #include "io/Parameters.hpp"
 #include "reynolds/SolverSettings.hpp"
 #include "rheology/Lubricant.hpp"
@@ -121,6 +122,13 @@ struct PhysicalLubricant {
 };
 [[nodiscard]] Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
                                            const std::optional<PhysicalLubricant>& physical);
+/// The Moes groups of a case must be numbers: M and lambda_bar finite and
+/// > 0, L and alpha_bar finite and >= 0.  Inputs whose groups leave double
+/// precision (case.M = 1e300: lambda_bar = 0) are bad input: fails naming
+/// `load_key` (the key that set M, or "physical" for a [physical] section)
+/// when M or lambda_bar is wrong, else `lubricant_key`.
+void check_moes_groups(const Inputs& in, const MoesGroups& groups, const std::string& load_key,
+                       const std::string& lubricant_key);
 
 /// [solver]: the multigrid settings both modes have (SolverSettings), with
 /// the defaults of the mode.  `max_cycles_doc` says what a cycle limit means

@@ -20,6 +20,7 @@
 
 #include "dynamics/DryHertz.hpp"
 #include "grid/Grid.hpp"
+#include "grid/NumberText.hpp"
 #include "impact/RunGuards.hpp"
 #include "impact/Scaling.hpp"
 #include "io/ParameterSet.hpp"
@@ -1073,6 +1074,24 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
   return lub;
 }
 
+// A radius of 1e300 m in a [physical] section gave W = 0 and M = 0 x inf =
+// NaN, case.M = 1e300 lambda_bar = 0: runs that failed at their first step
+// with "residual not finite".
+void check_moes_groups(const Inputs& in, const MoesGroups& g, const std::string& load_key,
+                       const std::string& lubricant_key) {
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  const auto non_negative = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  const bool load_ok = positive(g.M) && positive(g.lambda_bar);
+  if (load_ok && non_negative(g.L) && non_negative(g.alpha_bar)) return;
+  const std::string key = load_ok ? lubricant_key : load_key;
+  in.fail(key,
+          fmt::format("{} M = {}, L = {}, lambda_bar = {} and alpha_bar = {}, which must "
+                      "be finite numbers (M and lambda_bar > 0, L and alpha_bar >= 0)",
+                      key == "physical" ? "the section's values give" : "gives",
+                      finite_or_text(g.M, "{:g}"), finite_or_text(g.L, "{:g}"),
+                      finite_or_text(g.lambda_bar, "{:g}"), finite_or_text(g.alpha_bar, "{:g}")));
+}
+
 namespace {
 
 /// E' of a [physical] section: physical.reduced_modulus, or E1, nu1, E2, nu2 (not both).
@@ -1155,10 +1174,20 @@ MoesGroups dimensionless_case(const Inputs& in) {
   return g;
 }
 
+/// The [case] key that set M (case.M or case.lambda_bar), and the one that set L.
+std::string load_key(const Inputs& in) {
+  return in.has("case.lambda_bar") ? "case.lambda_bar" : "case.M";
+}
+std::string lubricant_key(const Inputs& in) {
+  return in.has("case.alpha_bar") ? "case.alpha_bar" : "case.L";
+}
+
 void assemble_case(const Inputs& in, ImpactConfig& c) {
   c.physical.reset();
   if (in.any_in_section("physical")) c.physical = physical_case(in);
   const MoesGroups g = c.physical ? moes_groups(*c.physical) : dimensionless_case(in);
+  check_moes_groups(in, g, c.physical ? "physical" : load_key(in),
+                    c.physical ? "physical" : lubricant_key(in));
   c.M = g.M;
   c.L = g.L;
   c.lambda_bar = g.lambda_bar;

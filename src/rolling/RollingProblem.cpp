@@ -12,6 +12,7 @@
 
 #include "grid/EdgeBand.hpp"
 #include "grid/FieldExtrema.hpp"
+#include "grid/NumberText.hpp"
 #include "multigrid/Fas.hpp"
 #include "reynolds/LocalNewton.hpp"
 #include "reynolds/ReynoldsHierarchy.hpp"
@@ -330,8 +331,9 @@ bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall,
         std::abs(record.force_error) >= kDivergedForceError)
       throw StageDiverged(
           fmt::format("the multigrid iteration diverged on the {}^2 grid at "
-                      "cycle {} (residual {:.3e}, force error {:.3g})",
-                      record.points, record.cycle, record.residual, record.force_error));
+                      "cycle {} (residual {}, force error {})",
+                      record.points, record.cycle, finite_or_text(record.residual, "{:.3e}"),
+                      finite_or_text(record.force_error, "{:.3g}")));
     if (record.residual < lowest) {
       lowest = record.residual;
       lowest_cycle = c;
