@@ -1075,8 +1075,8 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
 }
 
 // A radius of 1e300 m in a [physical] section gave W = 0 and M = 0 x inf =
-// NaN, case.M = 1e300 lambda_bar = 0: runs that failed at their first step
-// with "residual not finite".
+// NaN, and case.M = 1e300 gave lambda_bar = 0: runs that failed at their
+// first step with "residual not finite".
 void check_moes_groups(const Inputs& in, const MoesGroups& g, const std::string& load_key,
                        const std::string& lubricant_key) {
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };

@@ -81,6 +81,10 @@ void assemble_physical(const Inputs& in, RollingConfig& c) {
   c.M = p.W * std::pow(p.U, -0.75);
   c.L = p.alpha_per_Pa * E * std::pow(p.U, 0.25);
   c.D = p.Rx_m / p.Ry_m;
+  if (!(std::isfinite(c.D) && c.D > 0.0))
+    in.fail("physical.Ry", fmt::format("gives D = Rx / Ry = {:g}, which must be a finite number "
+                                       "> 0",
+                                       c.D));
   c.physical = p;
 }
 
