@@ -637,8 +637,12 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "--set physical.reduced_modulus=2.2e11 --set physical.eta0=0.04 --set physical.alpha=2e-8",
       "physical: the section's values give M = not finite, L = 0, lambda_bar = not finite");
   expect_refused("--set case.M=1e-300",
-                 "case.M = 1e-300: gives M = 1e-300, L = 10, lambda_bar "
-                 "= not finite");
+                 "case.M = 1e-300: gives M = 1e-300, L = 10, lambda_bar = not finite");
+  expect_refused(
+      "--set physical.Rx=1e-300 --set physical.Ry=1e300 --set physical.load=10 --set "
+      "physical.u1=1 --set physical.u2=1 --set physical.reduced_modulus=2.2e11 --set "
+      "physical.eta0=0.04 --set physical.alpha=2e-8",
+      "physical.Ry = 1e+300: gives D = Rx / Ry = 0, which must be a finite number > 0");
   // Beyond any contact, still a number: D = 1e300 reaches X = 7.607.
   expect_refused("--set case.D=1e300", "grid.x_min = -4.5 (the default): must be < -7.607");
   // The contacts of docs/validation.md (D = 0.25 to 4) fit the default
