@@ -189,7 +189,7 @@ TEST(Rolling, AContactWideAcrossTheRollingStartsFromItsOwnHertzEllipse) {
   // the rolling than along it: started from sqrt(1 - X^2 - D Y^2), which
   // carries 1 / sqrt(D) = 2.2 times the load, the 17^2 stage of the full
   // multigrid diverged at its third cycle (also with D = 0.1); from the dry
-  // Hertz ellipse (ax = 0.744, ay = 2.149, p0 = 1.251) it converges, and
+  // Hertz ellipse (ax = 0.744, ay = 2.149, p0 = 0.626) it converges, and
   // within the 4 % of the formula that docs/validation.md finds for D <= 1
   // (measured -1.5 %; -0.9 % on 513^2 on a domain twice as wide).
   RollingConfig c = rolling_case(100, 10, 257);
@@ -559,7 +559,7 @@ TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
 }
 
 TEST(Rolling, ANonFiniteResidualIsNamedSo) {
-  // L = 1e308 (alpha_bar 4e307): the first cycles overflow the viscosity.
+  // L = 1e308 (alpha_bar 1.7e308): the first cycles overflow the viscosity.
   // The message said "residual -nan".
   const std::string message =
       failure_message(load_rolling_config(std::nullopt, {"case.L=1e308", "grid.points=33"}));
