@@ -48,8 +48,11 @@ constexpr int kMaxSplitDepth = 2;
 /// diverged, or it is above the kept-residual bound) further, down to
 /// dT / 2^kRescueSplitDepth: M = 100, L = 20 on 513^2 ended at T = 4.078 in
 /// the collapse with quarters at 1.4e-3, and lifts off with eighths and
-/// sixteenths.  A run whose quarters were kept keeps its bits.
-constexpr int kRescueSplitDepth = 4;
+/// sixteenths.  L = 20 on 1025^2 ended at T = 4.0576 with sixteenths at
+/// 1.4e-3 (one and two threads alike) and goes on with thirty-seconds (to
+/// T = 4.066, at 505 cycles per step).  A run whose quarters were kept
+/// keeps its bits.
+constexpr int kRescueSplitDepth = 5;
 /// The attempt from which on a step brings the deformation up to date before
 /// each colour of a sweep (once per sweep before it: section 7 of
 /// docs/model.md): the second retry on.  The last retry only cost less on the

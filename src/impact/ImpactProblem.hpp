@@ -32,7 +32,7 @@ class ImpactProblem {
   /// is solved in halves (down to dT / 4); one whose quarter steps still did not converge
   /// keeps its best iterate, if that is at most 100 times above
   /// solver.tolerance, and is counted in RunSummary::unconverged_steps; a
-  /// quarter above that is halved further, down to dT / 16.  Throws RunInterrupted
+  /// quarter above that is halved further, down to dT / 32.  Throws RunInterrupted
   /// after a step when observer.stop_requested().
   RunSummary run(ImpactObserver& observer);
 
