@@ -125,8 +125,8 @@ struct PhysicalLubricant {
 /// The Moes groups of a case must be numbers: M and lambda_bar finite and
 /// > 0, L and alpha_bar finite and >= 0.  Inputs whose groups leave double
 /// precision (case.M = 1e300: lambda_bar = 0) are bad input: fails naming
-/// `load_key` (the key that set M, or "physical" for a [physical] section)
-/// when M or lambda_bar is wrong, else `lubricant_key`.
+/// the [physical] section when there is one, else `load_key` (the [case] key
+/// that set M) when M or lambda_bar is wrong, else `lubricant_key`.
 void check_moes_groups(const Inputs& in, const MoesGroups& groups, const std::string& load_key,
                        const std::string& lubricant_key);
 

@@ -1083,13 +1083,14 @@ void check_moes_groups(const Inputs& in, const MoesGroups& g, const std::string&
   const auto non_negative = [](double v) { return std::isfinite(v) && v >= 0.0; };
   const bool load_ok = positive(g.M) && positive(g.lambda_bar);
   if (load_ok && non_negative(g.L) && non_negative(g.alpha_bar)) return;
-  const std::string key = load_ok ? lubricant_key : load_key;
+  const bool physical = in.any_in_section("physical");
+  const std::string key = physical ? "physical" : load_ok ? lubricant_key : load_key;
   in.fail(key,
           fmt::format("{} M = {}, L = {}, lambda_bar = {} and alpha_bar = {}, which must "
                       "be finite numbers (M and lambda_bar > 0, L and alpha_bar >= 0)",
-                      key == "physical" ? "the section's values give" : "gives",
-                      finite_or_text(g.M, "{:g}"), finite_or_text(g.L, "{:g}"),
-                      finite_or_text(g.lambda_bar, "{:g}"), finite_or_text(g.alpha_bar, "{:g}")));
+                      physical ? "the section's values give" : "gives", finite_or_text(g.M, "{:g}"),
+                      finite_or_text(g.L, "{:g}"), finite_or_text(g.lambda_bar, "{:g}"),
+                      finite_or_text(g.alpha_bar, "{:g}")));
 }
 
 namespace {
@@ -1186,8 +1187,7 @@ void assemble_case(const Inputs& in, ImpactConfig& c) {
   c.physical.reset();
   if (in.any_in_section("physical")) c.physical = physical_case(in);
   const MoesGroups g = c.physical ? moes_groups(*c.physical) : dimensionless_case(in);
-  check_moes_groups(in, g, c.physical ? "physical" : load_key(in),
-                    c.physical ? "physical" : lubricant_key(in));
+  check_moes_groups(in, g, load_key(in), lubricant_key(in));
   c.M = g.M;
   c.L = g.L;
   c.lambda_bar = g.lambda_bar;

@@ -100,8 +100,7 @@ void assemble_rolling_case(const Inputs& in, RollingConfig& c) {
   }
   c.lambda_bar = moes_lambda_bar(c.M);
   c.alpha_bar = moes_alpha_bar(c.M, c.L);
-  check_moes_groups(in, {c.M, c.L, c.lambda_bar, c.alpha_bar}, c.physical ? "physical" : "case.M",
-                    c.physical ? "physical" : "case.L");
+  check_moes_groups(in, {c.M, c.L, c.lambda_bar, c.alpha_bar}, "case.M", "case.L");
   std::optional<PhysicalLubricant> physical;
   if (c.physical) physical = {c.physical->ph_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
   c.lubricant = assemble_lubricant(in, c.alpha_bar, physical);
