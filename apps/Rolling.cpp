@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <optional>
+#include <string>
 
 #include "Cli.hpp"
 #include "impact/ImpactObserver.hpp"
@@ -61,8 +62,10 @@ int run_rolling(const RollingOptions& options) {
     result = problem.run([&](const RollingCycle& c) {
       if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
       if (options.quiet) return;
-      print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}\n", c.points,
-                c.cycle, c.residual, c.force_error, c.Hc);
+      const std::string retry =
+          c.attempt > 0 ? fmt::format(" (retry at damping {:g})", c.damping) : "";
+      print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}\n",
+                c.points, c.cycle, c.residual, c.force_error, c.Hc, retry);
     });
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());

@@ -273,6 +273,9 @@ TEST(Rolling, CentralFilmConvergesAtLowMAndL20) {
   EXPECT_LT(std::abs(r.force_error), c.tolerance);
   EXPECT_EQ(r.cycles, finest_cycles(r));  // numbered over the attempts
   EXPECT_LE(r.cycles, c.max_cycles);
+  // The full relaxation stalled: the cycles that converged are a damped retry's.
+  EXPECT_GT(r.history.back().attempt, 0);
+  EXPECT_EQ(r.history.back().damping, 0.5);
   EXPECT_NEAR(hertz_to_moes_film(r.Hc, 10) / nvm_central_film(10, 20) - 1.0, 0.0, 0.04);
   EXPECT_GT(r.Hm, 0.0);
 }
@@ -586,6 +589,9 @@ TEST(RollingCli, WritesTheRunDirectory) {
   for (const char* file :
        {"run.json", "fields.nc", "profile_x.csv", "profile_y.csv", "convergence.csv"})
     EXPECT_TRUE(std::filesystem::exists(dir / "run" / file)) << file;
+  const std::string history = testing::read_file(dir / "run" / "convergence.csv");
+  EXPECT_EQ(history.substr(0, history.find('\n')),
+            "points,cycle,attempt,damping,residual,force_error,Hc,H0,work");
   const std::string json = testing::read_file(dir / "run" / "run.json");
   for (const char* key :
        {"\"Hc\"", "\"Hm\"", "\"Hc_moes\"", "\"Hm_moes\"", "\"H0\"", "\"P_max\"", "\"residual\""})

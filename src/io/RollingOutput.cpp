@@ -30,10 +30,12 @@ void write_profiles(const std::filesystem::path& dir, const RollingResult& r) {
   CsvWriter along_y(dir / "profile_y.csv", "Y,P,H");
   for (int j = 0; j < g.n; ++j)
     along_y.append(fmt::format("{:.10g},{:.10g},{:.10g}", g.y(j), r.P(i_m, j), r.H(i_m, j)));
-  CsvWriter history(dir / "convergence.csv", "points,cycle,residual,force_error,Hc,H0,work");
+  CsvWriter history(dir / "convergence.csv",
+                    "points,cycle,attempt,damping,residual,force_error,Hc,H0,work");
   for (const RollingCycle& c : r.history)
-    history.append(fmt::format("{},{},{:.6e},{:.6e},{:.10g},{:.10g},{:.2f}", c.points, c.cycle,
-                               c.residual, c.force_error, c.Hc, c.H0, c.work));
+    history.append(fmt::format("{},{},{},{:g},{:.6e},{:.6e},{:.10g},{:.10g},{:.2f}", c.points,
+                               c.cycle, c.attempt, c.damping, c.residual, c.force_error, c.Hc, c.H0,
+                               c.work));
   along_x.commit();
   along_y.commit();
   history.commit();

@@ -185,14 +185,21 @@ struct RollingProblem::Impl {
     double h0 = 0.0;
     double residual = std::numeric_limits<double>::infinity();
   };
-  /// Cycles on `level` (the finest of the sub-hierarchy) with H0 updated
-  /// after each, at most `cycles`; true when the finest grid reached the
+  /// One attempt of a stage: its index in kAttemptDamping, the most cycles
+  /// it may take, and whether it gives up when it stalls.
+  struct Attempt {
+    int index = 0;
+    int cycles = 0;
+    bool detect_stall = false;
+  };
+  /// The cycles of `attempt` on `level` (the finest of the sub-hierarchy)
+  /// with H0 updated after each; true when the finest grid reached the
   /// tolerance.  Throws StageDiverged when it diverges, or (detect_stall)
   /// stalls on the finest grid.  Keeps the lowest-residual iterate in `best`.
-  bool converge_on(int level, int cycles, bool detect_stall, Iterate& best,
-                   const CycleMonitor& monitor);
-  /// One cycle on `level` and its record, numbered after the level's earlier cycles.
-  RollingCycle cycle_on(int level);
+  bool converge_on(int level, const Attempt& attempt, Iterate& best, const CycleMonitor& monitor);
+  /// One cycle of `attempt` on `level` and its record, numbered after the
+  /// level's earlier cycles.
+  RollingCycle cycle_on(int level, int attempt);
   /// One local Newton step on the finest grid after a cycle that left it at
   /// `residual` (H0 stays: the next cycle balances the force); returns the
   /// residual measure after it.
@@ -290,13 +297,15 @@ void RollingProblem::Impl::update_h0(int level) {
   set_h0(h0 + h0_step * cfg.h0_relaxation * error / kLoadStiffness);
 }
 
-RollingCycle RollingProblem::Impl::cycle_on(int level) {
+RollingCycle RollingProblem::Impl::cycle_on(int level, int attempt) {
   reynolds::ReynoldsOperator& op = hierarchy.level(level).op();
   solver->cycle(level);
   update_h0(level);
   RollingCycle record;
   record.points = op.grid().n;
   record.cycle = ++level_cycles;
+  record.attempt = attempt;
+  record.damping = kAttemptDamping[attempt];
   record.residual = solver->residual_norm(level);
   if (level == 0 && cfg.local_newton_half_width > 0 && record.residual >= cfg.tolerance)
     record.residual = newton_on_worst_windows(record.residual);
@@ -318,12 +327,12 @@ double RollingProblem::Impl::newton_on_worst_windows(double residual) {
       residual, fixed_h0);
 }
 
-bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall, Iterate& best,
+bool RollingProblem::Impl::converge_on(int level, const Attempt& attempt, Iterate& best,
                                        const CycleMonitor& monitor) {
   double first = 0.0, lowest = std::numeric_limits<double>::infinity();
   int lowest_cycle = 0;
-  for (int c = 1; c <= cycles; ++c) {
-    const RollingCycle record = cycle_on(level);
+  for (int c = 1; c <= attempt.cycles; ++c) {
+    const RollingCycle record = cycle_on(level, attempt.index);
     if (monitor) monitor(record);
     if (c == 1) first = record.residual;
     if (!std::isfinite(record.residual) || !std::isfinite(h0) ||
@@ -339,7 +348,7 @@ bool RollingProblem::Impl::converge_on(int level, int cycles, bool detect_stall,
       lowest_cycle = c;
     }
     if (record.residual < best.residual) best = {solver->solution(level), h0, record.residual};
-    if (detect_stall && c - lowest_cycle >= kStallCycles)
+    if (attempt.detect_stall && c - lowest_cycle >= kStallCycles)
       throw StageDiverged(fmt::format(
           "the multigrid iteration stalled on the {}^2 grid: residual {:.3e} at cycle {}, "
           "no lower than {:.3e} {} cycles before",
@@ -355,8 +364,8 @@ bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor
   const Iterate start{solver->solution(level), h0, solver->residual_norm(level)};
   Iterate best = start;
   level_cycles = 0;
-  for (std::size_t attempt = 0;; ++attempt) {
-    const bool last = attempt + 1 == std::size(kAttemptDamping);
+  for (int attempt = 0;; ++attempt) {
+    const bool last = attempt + 1 == std::ssize(kAttemptDamping);
     hierarchy.set_damping(kAttemptDamping[attempt]);
     solver->set_correction_safeguard(attempt > 0 ? kRetryCorrectionSafeguard : 0.0);
     // On the finest grid solver.max_cycles bounds the cycles of all attempts;
@@ -364,7 +373,7 @@ bool RollingProblem::Impl::solve_stage(int level, int cycles, const CycleMonitor
     const int budget = level == 0 ? cycles - level_cycles : cycles;
     if (budget <= 0) return false;
     try {
-      return converge_on(level, budget, level == 0 && !last, best, monitor);
+      return converge_on(level, {attempt, budget, level == 0 && !last}, best, monitor);
     } catch (const StageDiverged&) {
       if (last) throw;
     }

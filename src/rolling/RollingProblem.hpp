@@ -21,7 +21,9 @@ namespace ehlsim {
 /// The state after one cycle on one level of the full multigrid.
 struct RollingCycle {
   int points = 0;            ///< points per side of the level
-  int cycle = 0;             ///< cycle on that level, from 1
+  int cycle = 0;             ///< cycle on that level, from 1, over all its attempts
+  int attempt = 0;           ///< attempt on that level: 0, then the retries
+  double damping = 1.0;      ///< the attempt's under-relaxation factor
   double residual = 0.0;     ///< pressure-scaled residual norm
   double force_error = 0.0;  ///< (h^2 sum P - 2 pi / 3) / (2 pi / 3)
   double Hc = 0.0;           ///< central film H(0, 0)
