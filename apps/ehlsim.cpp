@@ -317,9 +317,16 @@ int run_impact(const ImpactOptions& options) {
   } catch (const RunInterrupted& e) {
     run_dir.reset();  // the partial files go; the checkpoint stays
     const int signal = InterruptGuard::received();
-    std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
-                 signal_name(signal).c_str(), e.step, e.T,
-                 resume_command(options, kept_path).c_str());
+    if (e.step == 0) {
+      std::fprintf(stderr,
+                   "ehlsim: interrupted by %s before the first step ended; nothing was written to "
+                   "%s\n",
+                   signal_name(signal).c_str(), options.out_dir.c_str());
+    } else {
+      std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
+                   signal_name(signal).c_str(), e.step, e.T,
+                   resume_command(options, kept_path).c_str());
+    }
     return exit_code_for_signal(signal);
   } catch (const PublishInterrupted& e) {
     run_dir.reset();  // the staging directory goes; DIR is as it was

@@ -78,7 +78,8 @@ TEST(Cli, OutOfRange) {
   expect_bad_input(ehlsim("impact --set case.M=-3"), "case.M = -3: must be > 0 (--set)");
   TempDir dir;
   const std::string f = write_file(dir / "case.toml", "[time]\nV0 = 0\n").string();
-  expect_bad_input(ehlsim("impact " + quote(f)), "time.V0 = 0: must be > 0 (" + f + ":2:6)");
+  expect_bad_input(ehlsim("impact " + quote(f)),
+                   "time.V0 = 0: must be in [1e-06, 1e+06] (" + f + ":2:6)");
 }
 
 TEST(Cli, GridNotTwoToTheKPlusOne) {

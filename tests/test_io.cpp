@@ -486,6 +486,12 @@ TEST(RegistryErrors, InconsistentCombinations) {
       set_error({"solver.pre_sweeps=0", "solver.post_sweeps=0"}),
       "solver.post_sweeps = 0: solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are 0 "
       "and 0) (--set)");
+  // One cycle must end in reasonable time: a signal is acted on between cycles.
+  EXPECT_EQ(set_error({"solver.pre_sweeps=2000000000"}),
+            "solver.pre_sweeps = 2000000000: must be in [0, 20] (--set)");
+  EXPECT_EQ(set_error({"solver.post_sweeps=21"}),
+            "solver.post_sweeps = 21: must be in [0, 20] (--set)");
+  EXPECT_EQ(set_error({"time.V0=1e300"}), "time.V0 = 1e+300: must be in [1e-06, 1e+06] (--set)");
   EXPECT_EQ(set_error({"lubricant.viscosity=roelands"}),
             "lubricant.ph_star is required by lubricant.viscosity = \"roelands\" (reference Hertz "
             "pressure [Pa]; or give a [physical] section)");

@@ -709,6 +709,30 @@ TEST(Lifecycle, SigtermEndsARollingRunAndLeavesNothing) {
   EXPECT_LT(seconds, 10.0);  // stopped after its first cycle, not at the end of the run
 }
 
+TEST(Lifecycle, ASignalEndsAStepThatWouldNeverEnd) {
+  // A tolerance no iteration meets and cycles without a practical bound: the
+  // solve at T = 0 (and any step) would cycle for ever.  A signal is acted on
+  // after the cycle under way, not at the end of the step.
+  TempDir work;
+  const fs::path run = work / "run";
+  const auto start_time = std::chrono::steady_clock::now();
+  const Child c = start({"impact", "--set", "grid.points=33", "--set", "solver.tolerance=1e-300",
+                         "--set", "solver.max_cycles=2000000000", "--out", run.string()},
+                        work / "endless");
+  ASSERT_TRUE(wait_for_path(work / (".run.part-" + std::to_string(c.pid))));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  kill(c.pid, SIGTERM);
+  EXPECT_EQ(exit_code_of(c), 143);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  // No step ended, so there is no state to continue from, and no resume line.
+  EXPECT_EQ(last_line(read_file(c.err)),
+            "ehlsim: interrupted by SIGTERM before the first step ended; nothing was written to " +
+                run.string());
+  EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"endless.err", "endless.out"}));
+  EXPECT_LT(seconds, 10.0);
+}
+
 TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
   TempDir work;
   const fs::path study = work / "study";

@@ -109,13 +109,15 @@ class ImpactObserver {
   /// before the cycle (solver.tolerance's measure).
   virtual void on_initial_cycle(int /*cycle*/, double /*residual*/) {}
   virtual void on_finish(const RunSummary& /*summary*/) {}
-  /// Asked after every completed step: true ends the run there (after the
-  /// state sink has had the step's state) with RunInterrupted.
+  /// Asked after every cycle and every completed step: true ends the run with
+  /// RunInterrupted after the last completed step (after the state sink has
+  /// had that step's state); the step under way is abandoned.
   [[nodiscard]] virtual bool stop_requested() const { return false; }
 };
 
 /// Thrown by ImpactProblem::run when the observer asked it to stop: the run
-/// ended after the completed step `step` at time `T`.
+/// ended after the completed step `step` at time `T` (0: before the first
+/// step ended, with no state to continue from).
 class RunInterrupted : public std::runtime_error {
  public:
   RunInterrupted(int last_step, double last_T)

@@ -74,6 +74,13 @@ double attempt_damping(int attempt, double retry_damping) {
   return retry_damping * std::pow(kFurtherRetryDamping, attempt - 1);
 }
 
+/// Thrown after a cycle when the observer asks the run to stop (a signal):
+/// the step under way is abandoned, and the run stops after the step before
+/// it.  A step may take minutes on a fine grid, or, with a solver.max_cycles
+/// of millions and a tolerance it never meets, for ever.  Not a
+/// std::exception: the retries, which catch those, must not catch it.
+struct StepAbandoned {};
+
 /// The mesh size on which solver.switch_ratio applies as given: that of the
 /// default case, 257^2 on [-1.5, 1.5]^2, where it was tuned (3).
 constexpr double kSwitchReferenceMesh = 3.0 / 256.0;
@@ -169,6 +176,8 @@ struct ImpactProblem::Impl {
     double force_now = 0.0, force_before = 0.0, edge_force_now = 0.0, delta = 0.0,
            level_spacing = 0.0, spacing_before = 0.0, spacing_before2 = 0.0;
     int levels_done = 0;
+    double impulse = 0.0, edge_impulse = 0.0;  ///< summary's, which accepted intervals add to
+    AttemptMemory attempt_memory;              ///< restored only when the step is abandoned
   };
   /// Advances `run` by one time step dT (step `step`): as one implicit step,
   /// or in halves when none of its attempts converges.
@@ -286,6 +295,16 @@ struct ImpactProblem::Impl {
   BdfCoefficients bdf = kBdf1;
   /// The observer of the running run(), told of every cycle (nullptr between runs).
   ImpactObserver* cycle_observer = nullptr;
+  /// Throws StepAbandoned when cycle_observer asks the run to stop.
+  void throw_if_stop_requested() const {
+    if (cycle_observer && cycle_observer->stop_requested()) throw StepAbandoned{};
+  }
+  /// The state after `step` (full-grid fields, whatever grid the solver
+  /// works on: a checkpoint does not depend on solver.symmetry).
+  [[nodiscard]] ImpactState state_after(int step, const RunProgress& run) const;
+  /// Ends a run asked to stop whose last completed step is `step`: its state
+  /// goes to the state sink (none before the first step), then RunInterrupted.
+  [[noreturn]] void stop_after(int step, const RunProgress& run);
   std::optional<ImpactState> restart;  ///< where run() starts, when not at Delta0
   int state_every = 0;
   ImpactProblem::StateSink state_sink;
@@ -489,6 +508,7 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
     force_before_cycle = force;
     solver->cycle();
     if (cycle_observer) cycle_observer->on_initial_cycle(c, residual);
+    throw_if_stop_requested();
   }
   hierarchy.set_deformation_each_colour(cfg.relaxation.deformation_each_colour);
   hierarchy.set_omega_flow_dominated(cfg.relaxation.omega_flow_dominated);
@@ -522,6 +542,7 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
     report.cycle = c;
     report.residual = residual;
     if (cycle_observer) cycle_observer->on_cycle(report);
+    throw_if_stop_requested();
     if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
       throw RunFailure(
           fmt::format("time step {} (T = {:.5f}): the multigrid iteration diverged (residual {}, "
@@ -575,7 +596,14 @@ double ImpactProblem::Impl::newton_on_worst_windows(const BallState& ball, doubl
 void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
   tally = StepTally{};
   const IntervalStart start = interval_start(run);
-  advance_interval(step, run, dT, 0, start);
+  try {
+    advance_interval(step, run, dT, 0, start);
+  } catch (const StepAbandoned&) {
+    // The state after the step before, as its checkpoint would have it.
+    restore_interval_start(start, run);
+    attempt_memory = start.attempt_memory;
+    throw;
+  }
   if (tally.splits > 0) {
     // The next step sees the levels T and T + dT, as after an unsplit step.
     rhoH_old = start.rhoH_now;
@@ -662,7 +690,10 @@ ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
           level_spacing,
           spacing_before,
           spacing_before2,
-          levels_done};
+          levels_done,
+          summary.impulse,
+          summary.edge_impulse,
+          attempt_memory};
 }
 
 void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, RunProgress& run) {
@@ -681,6 +712,8 @@ void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, Run
   spacing_before = start.spacing_before;
   spacing_before2 = start.spacing_before2;
   levels_done = start.levels_done;
+  summary.impulse = start.impulse;
+  summary.edge_impulse = start.edge_impulse;
 }
 
 void ImpactProblem::Impl::accept_interval(RunProgress& run, double dt, const StepSolve& solved) {
@@ -853,6 +886,28 @@ void ImpactProblem::Impl::add_to_summary(const StepRecord& record) {
   }
 }
 
+ImpactState ImpactProblem::Impl::state_after(int step, const RunProgress& run) const {
+  return ImpactState{step,
+                     run.ball,
+                     run.force_now,
+                     run.force_before,
+                     run.had_pressure,
+                     summary,
+                     attempt_memory,
+                     unfold(solver->solution(), grid),
+                     unfold(P_before, grid),
+                     unfold(P_before2, grid),
+                     unfold(P_before3, grid),
+                     unfold(rhoH_now, grid),
+                     unfold(rhoH_old, grid)};
+}
+
+void ImpactProblem::Impl::stop_after(int step, const RunProgress& run) {
+  // A state before the first step cannot be continued (restart_from).
+  if (state_sink && step >= 1) state_sink(state_after(step, run));
+  throw RunInterrupted(step, run.ball.T);
+}
+
 RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
   // The cycles of the steps are reported to this run's observer, and to no
@@ -865,28 +920,32 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
   const ForgetObserver forget{cycle_observer};
   observer.on_start(grid.full());
   RunProgress run;
-  if (restart) {
-    start_from_restart(run);
-  } else {
-    start_at_delta0(run);
+  try {
+    if (restart) {
+      start_from_restart(run);
+    } else {
+      start_at_delta0(run);
+    }
+  } catch (const StepAbandoned&) {
+    stop_after(0, run);
   }
   BallState& ball = run.ball;
   for (int step = run.first_step;; ++step) {
-    const auto [record, end] = solve_step(step, run);
+    std::pair<StepRecord, std::optional<RunOutcome>> solved;
+    try {
+      solved = solve_step(step, run);
+    } catch (const StepAbandoned&) {
+      stop_after(step - 1, run);
+    }
+    const auto& [record, end] = solved;
     const Field& H = hierarchy.finest().film();
     const bool snapshot = step % cfg.snapshot_every == 0 || end.has_value();
     report_step(observer, record, H, snapshot);
     add_to_summary(record);
     const bool stop = !end && observer.stop_requested();  // e.g. SIGINT: checkpoint, then stop
-    if (state_sink && !end && (stop || (state_every > 0 && step % state_every == 0))) {
-      // Full-grid fields, whatever grid the solver works on: a checkpoint
-      // does not depend on solver.symmetry.
-      state_sink(ImpactState{
-          step, ball, run.force_now, run.force_before, run.had_pressure, summary, attempt_memory,
-          unfold(solver->solution(), grid), unfold(P_before, grid), unfold(P_before2, grid),
-          unfold(P_before3, grid), unfold(rhoH_now, grid), unfold(rhoH_old, grid)});
-    }
-    if (stop) throw RunInterrupted(step, ball.T);
+    if (stop) stop_after(step, run);
+    if (state_sink && !end && state_every > 0 && step % state_every == 0)
+      state_sink(state_after(step, run));
     if (end) {
       summary.outcome = *end;
       summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);

@@ -33,7 +33,8 @@ class ImpactProblem {
   /// keeps its best iterate, if that is at most 100 times above
   /// solver.tolerance, and is counted in RunSummary::unconverged_steps; a
   /// quarter above that is halved further, down to dT / 32.  Throws RunInterrupted
-  /// after a step when observer.stop_requested().
+  /// when observer.stop_requested(): after a step, or after a cycle, which
+  /// abandons the step under way (the run ends after the step before it).
   RunSummary run(ImpactObserver& observer);
 
   [[nodiscard]] const ImpactConfig& config() const;

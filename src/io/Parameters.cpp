@@ -304,7 +304,7 @@ void add_time_parameters(std::vector<ParameterSpec>& r) {
   }
   r.push_back(real("time.Delta0", kDefaultDelta0, "", above(0), kUnbounded, "",
                    "initial separation Delta(0) (unit: delta*)"));
-  r.push_back(real("time.V0", kDefaultV0, "", above(0), kUnbounded, "",
+  r.push_back(real("time.V0", kDefaultV0, "", at_least(kMinV0), at_most(kMaxV0), "",
                    "initial approach speed -dDelta/dT(0) (unit: v0)"));
 }
 
@@ -983,10 +983,10 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                    "converged when the scaled finest-grid residual is below this"));
   r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
                       max_cycles_doc));
-  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), kUnbounded, false,
-                      "relaxation sweeps before the coarse-grid correction"));
-  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), kUnbounded, false,
-                      "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
+  r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), at_most(kMaxSweeps),
+                      false, "relaxation sweeps before the coarse-grid correction"));
+  r.push_back(integer("solver.post_sweeps", defaults.post_sweeps, at_least(0), at_most(kMaxSweeps),
+                      false, "relaxation sweeps after it (pre_sweeps + post_sweeps >= 1)"));
   r.push_back(
       integer("solver.coarsest_points", defaults.coarsest_points, at_least(kMinCoarsestPoints),
               at_most(kMaxGridPoints), true,

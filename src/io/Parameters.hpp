@@ -90,6 +90,18 @@ inline constexpr int kMaxGridPoints = 4097;
 /// the default step cap of a run until lift-off (a start far away or slow,
 /// e.g. time.V0 = 1e-9, would need billions of steps).
 inline constexpr int kMaxTimeSteps = 10'000'000;
+/// Most relaxation sweeps before or after the coarse-grid correction.  A
+/// signal is acted on between cycles, so one cycle must end in reasonable
+/// time (solver.pre_sweeps = 2e9 ran on after SIGTERM); more sweeps never paid
+/// (docs/performance.md: 5 + 3 cost more work than 3 + 2 on 1025^2).
+inline constexpr int kMaxSweeps = 20;
+/// The range of time.V0 (unit: v0; the paper's is 1).  The dry contact's
+/// largest radius grows as V0^(2/5): below 1e-6 it spans fewer than six
+/// meshes of the finest grid allowed (4097^2) on the paper's domain, above 1e6
+/// it needs a domain 250 times the paper's; beyond these the run's energy
+/// bounds (V0^2) leave the range of doubles (V0 = 1e300: "must be > inf").
+inline constexpr double kMinV0 = 1e-6;
+inline constexpr double kMaxV0 = 1e6;
 /// Smallest coarsest multigrid level.
 inline constexpr int kMinCoarsestPoints = 5;
 
