@@ -603,6 +603,13 @@ TEST(RollingCli, RejectsANonSquareDomain) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("grid.y_max = 4"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("must equal x_max - x_min"), std::string::npos) << r.err;
+  // A near miss prints the digits that differ ("6 must equal 6" before).
+  const auto near =
+      testing::ehlsim("rolling --quiet --set grid.y_min=-3.0000001 --out /nonexistent/x");
+  EXPECT_EQ(near.exit_code, 2);
+  EXPECT_NE(near.err.find("y_max - y_min = 6.0000001 must equal x_max - x_min = 6 "),
+            std::string::npos)
+      << near.err;
 }
 
 TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {

@@ -116,7 +116,7 @@ void assemble_rolling_grid(const Inputs& in, RollingConfig& c) {
   const double width = c.x_max - c.x_min, height = c.y_max - c.y_min;
   if (std::abs(width - height) > 1e-12 * width) {
     const std::string key = in.has("grid.y_max") ? "grid.y_max" : "grid.y_min";
-    in.fail(key, fmt::format("y_max - y_min = {:g} must equal x_max - x_min = {:g} (the grid "
+    in.fail(key, fmt::format("y_max - y_min = {:.10g} must equal x_max - x_min = {:.10g} (the grid "
                              "is square with square cells)",
                              height, width));
   }
