@@ -486,6 +486,13 @@ TEST(RegistryErrors, InconsistentCombinations) {
       set_error({"solver.pre_sweeps=0", "solver.post_sweeps=0"}),
       "solver.post_sweeps = 0: solver.pre_sweeps + solver.post_sweeps must be >= 1 (they are 0 "
       "and 0) (--set)");
+  // An input the chosen law ignores is refused (it was silently ignored).
+  EXPECT_EQ(set_error({"lubricant.z=0.6"}),
+            "lubricant.z = 0.6: is used only by lubricant.viscosity = \"roelands\" (the law is "
+            "\"barus\") (--set)");
+  EXPECT_EQ(set_error({"lubricant.eta0=0.04"}),
+            "lubricant.eta0 = 0.04: is used only by lubricant.viscosity = \"roelands\" (the law is "
+            "\"barus\") (--set)");
   // One cycle must end in reasonable time: a signal is acted on between cycles.
   EXPECT_EQ(set_error({"solver.pre_sweeps=2000000000"}),
             "solver.pre_sweeps = 2000000000: must be in [0, 20] (--set)");

@@ -1047,7 +1047,15 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
                                   user),
                       "lubricant.ph_star");
   }
-  if (!roelands) return lub;
+  if (!roelands) {
+    // The Roelands law's own inputs would be ignored by Barus's: most likely
+    // the law was meant to be Roelands.
+    for (const char* key : {"lubricant.z", "lubricant.alpha", "lubricant.eta0"}) {
+      if (in.has(key))
+        in.fail(key, "is used only by lubricant.viscosity = \"roelands\" (the law is \"barus\")");
+    }
+    return lub;
+  }
   if (!(lub.eta0_Pa_s > 0.0)) {
     throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
                                   "give a [physical] section)",
