@@ -1017,6 +1017,41 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                       "grid solved on: 16 on the quadrant of 1025^2)"));
 }
 
+/// The Roelands law's own inputs would be ignored by Barus's: most likely the
+/// law was meant to be Roelands.
+void refuse_roelands_inputs(const Inputs& in) {
+  for (const char* key : {"lubricant.z", "lubricant.alpha", "lubricant.eta0"}) {
+    if (in.has(key))
+      in.fail(key, "is used only by lubricant.viscosity = \"roelands\" (the law is \"barus\")");
+  }
+}
+
+/// The Roelands index z of `lub` (whose eta0 and ph* are set): lubricant.z,
+/// or from the pressure-viscosity coefficient alpha.
+double roelands_z(const Inputs& in, const Lubricant& lub, double alpha_bar,
+                  const std::optional<PhysicalLubricant>& physical, const std::string& user) {
+  if (!(lub.eta0_Pa_s > 0.0)) {
+    throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
+                                  "give a [physical] section)",
+                                  user),
+                      "lubricant.eta0");
+  }
+  if (!(std::log(lub.eta0_Pa_s) + kRoelandsLnEtaInf > 0.0)) {
+    const std::string key = physical ? "physical.eta0" : "lubricant.eta0";
+    in.fail(key, fmt::format("must be > {:g} Pa s for the Roelands law (ln(eta0) + {} > 0)",
+                             std::exp(-kRoelandsLnEtaInf), kRoelandsLnEtaInf));
+  }
+  if (in.has("lubricant.z") && in.has("lubricant.alpha")) {
+    in.fail("lubricant.alpha", "give either lubricant.z or lubricant.alpha, not both");
+  }
+  if (const auto z = in.optional_real("lubricant.z")) return *z;
+  // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
+  const double alpha =
+      physical ? physical->alpha_per_Pa
+               : in.optional_real("lubricant.alpha").value_or(alpha_bar / lub.ph_star_Pa);
+  return Lubricant::roelands_z_from_alpha(alpha, lub.eta0_Pa_s);
+}
+
 Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
                              const std::optional<PhysicalLubricant>& physical) {
   Lubricant lub;
@@ -1048,37 +1083,10 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
                       "lubricant.ph_star");
   }
   if (!roelands) {
-    // The Roelands law's own inputs would be ignored by Barus's: most likely
-    // the law was meant to be Roelands.
-    for (const char* key : {"lubricant.z", "lubricant.alpha", "lubricant.eta0"}) {
-      if (in.has(key))
-        in.fail(key, "is used only by lubricant.viscosity = \"roelands\" (the law is \"barus\")");
-    }
+    refuse_roelands_inputs(in);
     return lub;
   }
-  if (!(lub.eta0_Pa_s > 0.0)) {
-    throw ConfigError(fmt::format("lubricant.eta0 is required by {} (ambient viscosity [Pa s]; or "
-                                  "give a [physical] section)",
-                                  user),
-                      "lubricant.eta0");
-  }
-  if (!(std::log(lub.eta0_Pa_s) + kRoelandsLnEtaInf > 0.0)) {
-    const std::string key = physical ? "physical.eta0" : "lubricant.eta0";
-    in.fail(key, fmt::format("must be > {:g} Pa s for the Roelands law (ln(eta0) + {} > 0)",
-                             std::exp(-kRoelandsLnEtaInf), kRoelandsLnEtaInf));
-  }
-  if (in.has("lubricant.z") && in.has("lubricant.alpha")) {
-    in.fail("lubricant.alpha", "give either lubricant.z or lubricant.alpha, not both");
-  }
-  if (const auto z = in.optional_real("lubricant.z")) {
-    lub.roelands_z = *z;
-  } else {
-    // Default alpha: the one of [physical], else the one L implies (alpha_bar / ph*).
-    const double alpha =
-        physical ? physical->alpha_per_Pa
-                 : in.optional_real("lubricant.alpha").value_or(alpha_bar / lub.ph_star_Pa);
-    lub.roelands_z = Lubricant::roelands_z_from_alpha(alpha, lub.eta0_Pa_s);
-  }
+  lub.roelands_z = roelands_z(in, lub, alpha_bar, physical, user);
   return lub;
 }
 
