@@ -300,6 +300,13 @@ int run_impact(const ImpactOptions& options) {
     if (const int code = read_restart_checkpoint(options, checkpoint); code != kExitOk) return code;
     check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
                              options.restart_file);
+    // A run to a time the checkpoint has passed ran one step and ended at
+    // once, with exit 0 (time.T_end = 3 from T = 4).
+    if (std::isfinite(config.T_end) && !(config.T_end > checkpoint->state.ball.T))
+      throw ConfigError(fmt::format("time.T_end = {:g}: must be later than the time of checkpoint "
+                                    "'{}', T = {:.6g}",
+                                    config.T_end, options.restart_file, checkpoint->state.ball.T),
+                        "time.T_end");
   }
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);

@@ -1054,8 +1054,10 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   EXPECT_EQ(checkpoint_error(path), prefix + "field 'T' is not finite (nan)");
   fresh();
   ehlsim::testing::rewrite_attribute(path, "step", std::numeric_limits<int>::max());
-  EXPECT_EQ(checkpoint_error(path).rfind(prefix + "field 'step' = 2147483647 does not match T = "),
-            0u)
+  EXPECT_EQ(checkpoint_error(path), prefix + "field 'step' = 2147483647: must be in [1, 10000000]");
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "step", 1000);
+  EXPECT_EQ(checkpoint_error(path).rfind(prefix + "field 'step' = 1000 does not match T = "), 0u)
       << checkpoint_error(path);
   // A value that is plausible but not the one written: only the checksum sees it.
   fresh();
@@ -1118,7 +1120,15 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
               s.step = 0;
               s.summary.steps = 0;
             }),
-            prefix + "'step' = 0: must be >= 1");
+            prefix + "'step' = 0: must be in [1, 10000000]");
+  // 2^31 - 1 (with a forged checksum) overflowed the next step's number.
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.step = std::numeric_limits<int>::max();
+              s.summary.steps = s.step;
+            }),
+            prefix + "'step' = 2147483647: must be in [1, 10000000]");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.force_before = -1e10; }),
+            prefix + "'force_before' = -1e+10: a film force is >= 0");
   // The grid of the parameters must be the one of the fields.
   nlohmann::json other = parameters;
   other["grid"]["points"] = 33;

@@ -280,7 +280,15 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
     if (!std::isfinite(value) && !(std::isnan(value) && may_be_nan(name)))
       in.fail(name, fmt::format("is not finite ({})", value));
   });
-  if (s.step < 1) in.fail("step", fmt::format("= {}: must be >= 1", s.step));
+  // No run takes more steps than time.max_steps allows (a forged 2^31 - 1
+  // overflowed the next step's number and ended with exit 0).
+  if (s.step < 1 || s.step > kMaxTimeSteps)
+    in.fail("step", fmt::format("= {}: must be in [1, {}]", s.step, kMaxTimeSteps));
+  // The film force is the integral of a pressure >= 0.
+  for (const auto& [name, force] :
+       {std::pair{"force", s.force}, std::pair{"force_before", s.force_before}}) {
+    if (force < 0.0) in.fail(name, fmt::format("= {:.6g}: a film force is >= 0", force));
+  }
   const double expected_T = static_cast<double>(s.step) * g.dT;
   if (std::fabs(s.ball.T - expected_T) > kStepTimeTolerance * expected_T) {
     in.fail("step", fmt::format("= {} does not match T = {:.9g}: step x time.dT = {:.9g} "
