@@ -499,6 +499,9 @@ TEST(RegistryErrors, InconsistentCombinations) {
   EXPECT_EQ(set_error({"solver.post_sweeps=21"}),
             "solver.post_sweeps = 21: must be in [0, 20] (--set)");
   EXPECT_EQ(set_error({"time.V0=1e300"}), "time.V0 = 1e+300: must be in [1e-06, 1e+06] (--set)");
+  // A profile resampled ever finer grew without bound (1e-7: 12 GB in 18 s).
+  EXPECT_EQ(set_error({"spike.resample_meshes=1e-7"}),
+            "spike.resample_meshes = 1e-07: must be in [0.01, 1] (--set)");
   EXPECT_EQ(set_error({"lubricant.viscosity=roelands"}),
             "lubricant.ph_star is required by lubricant.viscosity = \"roelands\" (reference Hertz "
             "pressure [Pa]; or give a [physical] section)");
