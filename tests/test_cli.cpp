@@ -421,6 +421,39 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                        "impact`");
 }
 
+TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
+  // Values a run never writes gave exit 0 with NaN or inf in spike.csv.
+  TempDir dir;
+  const fs::path run = dir / "run";
+  ASSERT_EQ(
+      ehlsim("impact --quiet --set grid.points=33 --set time.T_end=1 --out " + quote(run.string()))
+          .exit_code,
+      0);
+  const fs::path fields = run / "fields.nc";
+  const fs::path good = dir / "good.nc";
+  fs::copy_file(fields, good);
+  const std::string prefix = "cannot use '" + fields.string() + "': snapshot 0 ";
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ehlsim::testing::rewrite_value(fields, "P", {0, 10, 12}, nan);
+  expect_bad_input(
+      ehlsim("spike --quiet " + quote(run.string())),
+      prefix +
+          "(T = 1.03125) has the pressure nan at point (12, 10) (a run writes finite pressures "
+          ">= 0)");
+  fs::copy_file(good, fields, fs::copy_options::overwrite_existing);
+  ehlsim::testing::rewrite_value(fields, "P", {0, 3, 4}, -5.0);
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string())),
+                   prefix +
+                       "(T = 1.03125) has the pressure -5 at point (4, 3) (a run writes "
+                       "finite pressures >= 0)");
+  fs::copy_file(good, fields, fs::copy_options::overwrite_existing);
+  ehlsim::testing::rewrite_value(fields, "time", {0}, nan);
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string())),
+                   prefix +
+                       "has time nan (the times of a run are finite and increasing; the one "
+                       "before is -inf)");
+}
+
 TEST(Cli, SpikeFilesOfARun) {
   TempDir dir;
   const fs::path run = dir / "run";

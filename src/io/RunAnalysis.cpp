@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -101,6 +102,28 @@ std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   }
 }
 
+/// Snapshot `k` of `fields` (at time T, after `previous`) as a run writes
+/// one: a time later than the one before, and pressures that are finite and
+/// >= 0.  Throws ConfigError naming the file: a damaged fields.nc gave exit 0
+/// with NaN in spike.csv.
+void check_snapshot(const FieldReader& fields, const std::filesystem::path& path, std::size_t k,
+                    double T, double previous, const Field& P) {
+  if (!std::isfinite(T) || !(T > previous)) {
+    throw ConfigError(fmt::format(
+        "cannot use '{}': snapshot {} has time {} (the times of a run are finite and increasing; "
+        "the one before is {})",
+        path.string(), k, T, previous));
+  }
+  const int n = fields.grid().n;
+  for (std::size_t m = 0; m < P.size(); ++m) {
+    if (std::isfinite(P[m]) && P[m] >= 0.0) continue;
+    throw ConfigError(fmt::format(
+        "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
+        "writes finite pressures >= 0)",
+        path.string(), k, T, P[m], static_cast<int>(m) % n, static_cast<int>(m) / n));
+  }
+}
+
 /// The analysis of `run_dir` written into the directory `staging`.
 RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
                                  const std::filesystem::path& staging,
@@ -109,8 +132,15 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   const nlohmann::json run = read_run_json(run_file);
   check_impact_run(run, run_file);
   const SpikeSettings settings = load_config(std::nullopt, spike_overrides(run, overrides)).spike;
-  const DryContactRadius dry(run_parameter(run, "time", "Delta0", run_file),
-                             run_parameter(run, "time", "V0", run_file));
+  const double Delta0 = run_parameter(run, "time", "Delta0", run_file);
+  const double V0 = run_parameter(run, "time", "V0", run_file);
+  // A run's own start (time.V0 = 0 in an edited run.json failed in Newmark, exit 1).
+  if (!(Delta0 > 0.0 && V0 >= kMinV0 && V0 <= kMaxV0))
+    throw ConfigError(
+        fmt::format("cannot use '{}': parameters.time Delta0 = {} and V0 = {} are "
+                    "no run's (Delta0 > 0, V0 in [{:g}, {:g}])",
+                    run_file.string(), Delta0, V0, kMinV0, kMaxV0));
+  const DryContactRadius dry(Delta0, V0);
 
   const std::unique_ptr<FieldReader> fields = open_fields(run_dir / RunOutput::kFieldsFile);
 
@@ -121,11 +151,15 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   ProfileWriter radial(report.files[1], "T,R,P_filtered");
   ProfileWriter axis(report.files[2], "T,X,P");
   const RadialOrder order(fields->grid());
+  double previous = -std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < fields->times().size(); ++k) {
     const double T = fields->times()[k];
     // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
-    const SpikeAnalysis analysis = analyze_spike(order, fields->pressure(k).span(), settings);
+    const Field P = fields->pressure(k);
+    check_snapshot(*fields, run_dir / RunOutput::kFieldsFile, k, T, previous, P);
+    previous = T;
+    const SpikeAnalysis analysis = analyze_spike(order, P.span(), settings);
     series.append(spike_sample(T, analysis, dry));
     radial.append(T, analysis.filtered);
     axis.append(T, analysis.axis);

@@ -31,6 +31,16 @@ void rewrite_attribute(const std::filesystem::path& path, const char* name, T va
   ASSERT_EQ(nc_close(id), NC_NOERR);
 }
 
+/// Rewrites one value of the NetCDF variable `name` at `index`.
+inline void rewrite_value(const std::filesystem::path& path, const char* name,
+                          const std::vector<std::size_t>& index, double value) {
+  int id = -1, var = -1;
+  ASSERT_EQ(nc_open(path.c_str(), NC_WRITE, &id), NC_NOERR);
+  ASSERT_EQ(nc_inq_varid(id, name, &var), NC_NOERR);
+  ASSERT_EQ(nc_put_var1_double(id, var, index.data(), &value), NC_NOERR);
+  ASSERT_EQ(nc_close(id), NC_NOERR);
+}
+
 /// Flips the low 4 bytes (mantissa bits, little-endian) of 4 consecutive
 /// values of `field` where they are stored in the file: 16 bytes that leave
 /// every value finite, positive and plausible, so only a checksum sees them.
