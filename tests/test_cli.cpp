@@ -397,6 +397,10 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   const std::string missing = (dir / "missing").string();
   expect_bad_input(ehlsim("spike --quiet " + quote(missing)),
                    "run directory '" + missing + "' does not exist or is not a directory");
+  // A file as RUN_DIR (it was named as the --out it defaults to).
+  const std::string file = write_file(dir / "run.json", "{}").string();
+  expect_bad_input(ehlsim("spike --quiet " + quote(file)),
+                   "run directory '" + file + "' does not exist or is not a directory");
   const std::string empty = (dir / "empty").string();
   fs::create_directories(empty);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty)),

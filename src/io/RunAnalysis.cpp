@@ -177,15 +177,19 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
                                         const std::filesystem::path& out_dir,
                                         const std::vector<std::string>& overrides) {
-  // First: OUT locked (not while an impact run or another analysis writes
+  const auto refuse_run_dir = [&] {
+    throw ConfigError(
+        fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
+  };
+  // A file given as RUN_DIR is named as such, not as the --out it defaults to.
+  std::error_code ec;
+  if (std::filesystem::exists(run_dir, ec) && !std::filesystem::is_directory(run_dir, ec))
+    refuse_run_dir();
+  // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).
   RunDirectory out(
       out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
-  std::error_code ec;
-  if (!std::filesystem::is_directory(run_dir, ec)) {
-    throw ConfigError(
-        fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
-  }
+  if (!std::filesystem::is_directory(run_dir, ec)) refuse_run_dir();
   RunAnalysisReport report = write_analysis(run_dir, out.staging(), overrides);
   out.publish();
   for (std::filesystem::path& file : report.files) file = out_dir / file.filename();
