@@ -98,8 +98,9 @@ inline constexpr int kMaxSweeps = 20;
 /// The range of time.V0 (unit: v0; the paper's is 1).  The dry contact's
 /// largest radius grows as V0^(2/5): below 1e-6 it spans fewer than six
 /// meshes of the finest grid allowed (4097^2) on the paper's domain, above 1e6
-/// it needs a domain 250 times the paper's; beyond these the run's energy
-/// bounds (V0^2) leave the range of doubles (V0 = 1e300: "must be > inf").
+/// it needs a domain 250 times the paper's; far beyond them the run's
+/// energy bounds (V0^2) leave the range of doubles (V0 = 1e300: "must be >
+/// inf").
 inline constexpr double kMinV0 = 1e-6;
 inline constexpr double kMaxV0 = 1e6;
 /// Smallest coarsest multigrid level.
