@@ -102,25 +102,26 @@ std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   }
 }
 
-/// Snapshot `k` of `fields` (at time T, after `previous`) as a run writes
-/// one: a time later than the one before, and pressures that are finite and
-/// >= 0.  Throws ConfigError naming the file: a damaged fields.nc gave exit 0
-/// with NaN in spike.csv.
-void check_snapshot(const FieldReader& fields, const std::filesystem::path& path, std::size_t k,
-                    double T, double previous, const Field& P) {
+/// Snapshot `k` of the fields file `path` (pressure P at time T, after
+/// `previous`) as a run writes one: a time later than the one before, and
+/// pressures that are finite and >= 0.  Throws ConfigError naming the file: a
+/// damaged fields.nc gave exit 0 with NaN in spike.csv.
+void check_snapshot(const std::filesystem::path& path, std::size_t k, double T, double previous,
+                    const Field& P) {
   if (!std::isfinite(T) || !(T > previous)) {
     throw ConfigError(fmt::format(
         "cannot use '{}': snapshot {} has time {} (the times of a run are finite and increasing; "
         "the one before is {})",
         path.string(), k, T, previous));
   }
-  const int n = fields.grid().n;
-  for (std::size_t m = 0; m < P.size(); ++m) {
-    if (std::isfinite(P[m]) && P[m] >= 0.0) continue;
-    throw ConfigError(fmt::format(
-        "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
-        "writes finite pressures >= 0)",
-        path.string(), k, T, P[m], static_cast<int>(m) % n, static_cast<int>(m) / n));
+  for (int j = 0; j < P.n(); ++j) {
+    for (int i = 0; i < P.n(); ++i) {
+      if (std::isfinite(P(i, j)) && P(i, j) >= 0.0) continue;
+      throw ConfigError(fmt::format(
+          "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
+          "writes finite pressures >= 0)",
+          path.string(), k, T, P(i, j), i, j));
+    }
   }
 }
 
@@ -157,7 +158,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
     // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
     const Field P = fields->pressure(k);
-    check_snapshot(*fields, run_dir / RunOutput::kFieldsFile, k, T, previous, P);
+    check_snapshot(run_dir / RunOutput::kFieldsFile, k, T, previous, P);
     previous = T;
     const SpikeAnalysis analysis = analyze_spike(order, P.span(), settings);
     series.append(spike_sample(T, analysis, dry));
