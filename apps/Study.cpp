@@ -44,6 +44,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
 #include "io/Interrupt.hpp"
+#include "io/MemoryGuard.hpp"
 #include "io/Parameters.hpp"
 #include "io/RollingParameters.hpp"
 #include "io/RunAnalysis.hpp"
@@ -469,15 +470,28 @@ struct StudyPlan {
   fs::path script;          ///< the figure script
 };
 
+/// Each case checks its memory again when it starts; checked here, a case
+/// that cannot fit ends the study before any case runs (ConfigError naming it).
+template <class Check>
+void check_case_memory(const Case& c, Check check) {
+  try {
+    (void)check();
+  } catch (const ConfigError& e) {
+    throw ConfigError(fmt::format("case {}: {}", c.name, e.what()), e.key());
+  }
+}
+
 StudyPlan plan_study(const StudyOptions& options) {
   check_study_options(options);
   const fs::path out = options.out_dir;
   StudyPlan plan{study_cases(options, out), {}, {}};
   for (const Case& c : plan.cases) {
     plan.reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError
+    check_case_memory(c, [&] { return check_run_memory(plan.reference, available_memory_mb()); });
   }
   for (Case& c : rolling_cases(options, out)) {
-    (void)load_rolling_config(std::nullopt, c.overrides);
+    const RollingConfig config = load_rolling_config(std::nullopt, c.overrides);
+    check_case_memory(c, [&] { return check_run_memory(config, available_memory_mb()); });
     plan.cases.push_back(std::move(c));
   }
   plan.script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);

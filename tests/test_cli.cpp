@@ -517,6 +517,16 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   expect_bad_input(
       ehlsim("study --grid 33 --set spike.filter=median --out " + quote(out.string())),
       "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
+  // A memory limit no case fits: refused before the first case starts, not
+  // four failed cases and a study that ran its rolling contacts anyway.
+  const Result tight =
+      ehlsim("study --grid 33 --set solver.memory_limit_mb=1 --out " + quote(out.string()));
+  EXPECT_EQ(tight.exit_code, 2) << tight.err;
+  EXPECT_NE(tight.err.find("ehlsim: error: case M100: grid.points = 33: the run needs about "),
+            std::string::npos)
+      << tight.err;
+  EXPECT_NE(tight.err.find("more than the limit solver.memory_limit_mb = 1"), std::string::npos)
+      << tight.err;
   EXPECT_FALSE(fs::exists(out));
 }
 
