@@ -1088,6 +1088,13 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
   };
   EXPECT_EQ(error_of([](ImpactState& s) { s.P(3, 4) = -0.5; }),
             prefix + "'P' is negative (-0.5) at point (3, 4): a pressure is >= 0");
+  // Two faults: the first point row by row (j, then i) is the one named.
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.P(3, 4) = -0.5;
+              s.P(2, 5) = std::numeric_limits<double>::quiet_NaN();
+              s.P(7, 4) = std::numeric_limits<double>::infinity();
+            }),
+            prefix + "'P' is negative (-0.5) at point (3, 4): a pressure is >= 0");
   EXPECT_EQ(error_of([](ImpactState& s) { s.rhoH(5, 6) = -1e-3; }),
             prefix + "'rhoH' is negative (-0.001) at point (5, 6): a film is >= 0");
   EXPECT_EQ(error_of([](ImpactState& s) { s.rhoH_before(0, 6) = -1.0; }), "")

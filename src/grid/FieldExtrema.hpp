@@ -1,7 +1,10 @@
 #pragma once
 // Where a field is smallest or largest over the interior points of its grid:
-// the minimum film and the largest pressure that every mode reports.
+// the minimum film and the largest pressure that every mode reports; and the
+// first point of a field read from a file that no run could have written.
+#include <cmath>
 #include <limits>
+#include <optional>
 
 #include "grid/Grid.hpp"
 
@@ -36,6 +39,21 @@ template <class Better>
 [[nodiscard]] inline PointValue interior_maximum(const Grid2D& grid, const Field& f) {
   return interior_extremum(grid, f, -std::numeric_limits<double>::infinity(),
                            [](double a, double b) { return a > b; });
+}
+
+/// The first point of `f` (row by row, all n^2 of them) whose value is not
+/// finite, or is negative where `nonnegative_at(i, j)`: what the readers of
+/// fields.nc and of a checkpoint refuse.  nullopt when every value is sound.
+template <class NonNegativeAt>
+[[nodiscard]] std::optional<PointValue> first_unsound_point(const Field& f,
+                                                            NonNegativeAt nonnegative_at) {
+  for (int j = 0; j < f.n(); ++j) {
+    for (int i = 0; i < f.n(); ++i) {
+      const double v = f(i, j);
+      if (!std::isfinite(v) || (v < 0.0 && nonnegative_at(i, j))) return PointValue{v, i, j};
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace ehlsim

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "grid/FieldExtrema.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/IsolatedIo.hpp"
@@ -258,20 +259,17 @@ void check_fields_plausible(const CheckpointReader& in, const ImpactState& s) {
   for_each_field(s, [&](const char* name, const char*, const Field& f) {
     const bool pressure = name[0] == 'P';
     const int n = f.n();
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        const double v = f(i, j);
-        if (!std::isfinite(v))
-          in.fail(name, fmt::format("is not finite ({}) at point ({}, {})", v, i, j));
-        const bool interior = i > 0 && j > 0 && i < n - 1 && j < n - 1;
-        // Pressures are >= 0 everywhere (cavitation), films at the interior
-        // points of every kept step (the negative-film guard).
-        if (v < 0.0 && (pressure || interior)) {
-          in.fail(name, fmt::format("is negative ({:.6g}) at point ({}, {}): {}", v, i, j,
-                                    pressure ? "a pressure is >= 0" : "a film is >= 0"));
-        }
-      }
-    }
+    // Pressures are >= 0 everywhere (cavitation), films at the interior
+    // points of every kept step (the negative-film guard).
+    const auto unsound = first_unsound_point(
+        f, [&](int i, int j) { return pressure || (i > 0 && j > 0 && i < n - 1 && j < n - 1); });
+    if (!unsound) return;
+    const double v = unsound->value;
+    const int i = unsound->i, j = unsound->j;
+    if (!std::isfinite(v))
+      in.fail(name, fmt::format("is not finite ({}) at point ({}, {})", v, i, j));
+    in.fail(name, fmt::format("is negative ({:.6g}) at point ({}, {}): {}", v, i, j,
+                              pressure ? "a pressure is >= 0" : "a film is >= 0"));
   });
 }
 

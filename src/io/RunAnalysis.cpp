@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "analysis/SpikeAnalysis.hpp"
+#include "grid/FieldExtrema.hpp"
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
@@ -114,14 +115,11 @@ void check_snapshot(const std::filesystem::path& path, std::size_t k, double T, 
         "the one before is {})",
         path.string(), k, T, previous));
   }
-  for (int j = 0; j < P.n(); ++j) {
-    for (int i = 0; i < P.n(); ++i) {
-      if (std::isfinite(P(i, j)) && P(i, j) >= 0.0) continue;
-      throw ConfigError(fmt::format(
-          "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
-          "writes finite pressures >= 0)",
-          path.string(), k, T, P(i, j), i, j));
-    }
+  if (const auto unsound = first_unsound_point(P, [](int, int) { return true; })) {
+    throw ConfigError(fmt::format(
+        "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
+        "writes finite pressures >= 0)",
+        path.string(), k, T, unsound->value, unsound->i, unsound->j));
   }
 }
 
