@@ -505,6 +505,26 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
   EXPECT_NE(message.find("use more points"), std::string::npos) << message;
 }
 
+TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
+  // One cycle cannot converge anything: the message names the cycles and,
+  // at the default deformation updates, the per-colour update.
+  RollingConfig config = rolling_case(100, 10, 33);
+  config.max_cycles = 1;
+  const std::string hint = "--set solver.deformation_updates=colour";
+  const std::string message = failure_message(config);
+  EXPECT_EQ(message.rfind("not converged in solver.max_cycles = 1 cycles on the 33^2 grid", 0), 0u)
+      << message;
+  EXPECT_NE(message.find("more cycles (solver.max_cycles), or the deformation updated before "
+                         "each colour of the relaxation (" +
+                         hint),
+            std::string::npos)
+      << message;
+  config.relaxation.deformation_each_colour = true;
+  EXPECT_EQ(failure_message(config).find(hint), std::string::npos) << "it is in use";
+  // Nor where the domain or the divergence is the reason.
+  EXPECT_EQ(failure_message(rolling_case(1, 0, 33)).find(hint), std::string::npos);
+}
+
 TEST(EdgeLoad, AUniformPressureGivesTheBandsShareOfTheDomain) {
   // The band within a tenth of the side from the inlet and the two side
   // edges is all but 0.9 x 0.8 of the domain; of the 1023^2 interior points
