@@ -630,6 +630,21 @@ TEST(RollingCli, RejectsANonSquareDomain) {
   EXPECT_NE(near.err.find("y_max - y_min = 6.0000001 must equal x_max - x_min = 6 "),
             std::string::npos)
       << near.err;
+  // Nearer still, just above the 1e-12 of a square domain.
+  const auto nearer =
+      testing::ehlsim("rolling --quiet --set grid.y_max=3.0000000001 --out /nonexistent/x");
+  EXPECT_EQ(nearer.exit_code, 2);
+  EXPECT_NE(nearer.err.find("y_max - y_min = 6.0000000001 must equal x_max - x_min = 6 "),
+            std::string::npos)
+      << nearer.err;
+  // The key named is the one given, not a default.
+  const auto x_only =
+      testing::ehlsim("rolling --quiet --set grid.x_min=-0.01 --out /nonexistent/x");
+  EXPECT_EQ(x_only.exit_code, 2);
+  EXPECT_NE(x_only.err.find("ehlsim: error: grid.x_min = -0.01: y_max - y_min = 6 must equal "
+                            "x_max - x_min = 1.51 "),
+            std::string::npos)
+      << x_only.err;
 }
 
 TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {

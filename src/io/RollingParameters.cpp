@@ -106,6 +106,9 @@ void assemble_rolling_case(const Inputs& in, RollingConfig& c) {
   c.lubricant = assemble_lubricant(in, c.alpha_bar, physical);
 }
 
+/// The relative difference of the domain's sides that counts as square.
+constexpr double kSquareTolerance = 1e-12;
+
 void assemble_rolling_grid(const Inputs& in, RollingConfig& c) {
   c.elastic = in.get<bool>("body.elastic");
   c.grid_points = in.integer("grid.points");
@@ -114,9 +117,17 @@ void assemble_rolling_grid(const Inputs& in, RollingConfig& c) {
   c.y_min = in.real("grid.y_min");
   c.y_max = in.real("grid.y_max");
   const double width = c.x_max - c.x_min, height = c.y_max - c.y_min;
-  if (std::abs(width - height) > 1e-12 * width) {
-    const std::string key = in.has("grid.y_max") ? "grid.y_max" : "grid.y_min";
-    in.fail(key, fmt::format("y_max - y_min = {:.10g} must equal x_max - x_min = {:.10g} (the grid "
+  if (std::abs(width - height) > kSquareTolerance * width) {
+    // The key the user gave (x_min = -0.01 alone blamed the default y_min).
+    std::string key = "grid.y_min";
+    for (const char* given : {"grid.y_max", "grid.y_min", "grid.x_max", "grid.x_min"}) {
+      if (in.has(given)) {
+        key = given;
+        break;
+      }
+    }
+    // 15 digits show a difference of kSquareTolerance ("6 must equal 6" at 10).
+    in.fail(key, fmt::format("y_max - y_min = {:.15g} must equal x_max - x_min = {:.15g} (the grid "
                              "is square with square cells)",
                              height, width));
   }
