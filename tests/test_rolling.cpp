@@ -581,6 +581,18 @@ TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
       << message;
 }
 
+TEST(Rolling, ABalanceThatFailsWithAConvergedPressureIsNamedSo) {
+  // M = 1e-3: the film grows until the pressure, converged to a residual of
+  // 1e-19, carries none of the load.  The message said "the multigrid
+  // iteration diverged (residual 6.314e-20, force error -1)".
+  const std::string message = failure_message(rolling_case(1e-3, 10, 33));
+  EXPECT_EQ(message.rfind("the force balance diverged on the 33^2 grid at cycle ", 0), 0u)
+      << message;
+  EXPECT_NE(message.find(": the film carries none of the load (force error -1; residual "),
+            std::string::npos)
+      << message;
+}
+
 TEST(Rolling, ANonFiniteResidualIsNamedSo) {
   // L = 1e308 (alpha_bar 1.7e308): the first cycles overflow the viscosity.
   // The message said "residual -nan".

@@ -50,6 +50,8 @@ constexpr double kStartMeshesPerSemiAxis = 1.0;
 constexpr double kDivergenceFactor = 1e3;
 /// ... as has one whose force is off by the whole load (all pressure gone, or doubled).
 constexpr double kDivergedForceError = 1.0;
+/// A share of the load below which a diverged balance is said to carry none of it.
+constexpr double kNoLoadCarried = 1e-3;
 /// Under-relaxation factors of the attempts of a stage: a diverged or stalled
 /// stage starts again (kProgressFactor says from where) with more damping.
 constexpr double kAttemptDamping[] = {1.0, 0.5, 0.25};
@@ -203,6 +205,9 @@ struct RollingProblem::Impl {
   /// tolerance.  Throws StageDiverged when it diverges, or (detect_stall)
   /// stalls on the finest grid.  Keeps the lowest-residual iterate in `best`.
   bool converge_on(int level, const Attempt& attempt, Iterate& best, const CycleMonitor& monitor);
+  /// Why `record` ends its stage as diverged ("" when it does not); `first`
+  /// is the residual of the stage's first cycle.
+  [[nodiscard]] std::string divergence(const RollingCycle& record, double first) const;
   /// One cycle of `attempt` on `level` and its record, numbered after the
   /// level's earlier cycles.
   RollingCycle cycle_on(int level, int attempt);
@@ -333,6 +338,29 @@ double RollingProblem::Impl::newton_on_worst_windows(double residual) {
       residual, fixed_h0);
 }
 
+std::string RollingProblem::Impl::divergence(const RollingCycle& record, double first) const {
+  const bool iteration = !std::isfinite(record.residual) || !std::isfinite(h0) ||
+                         record.residual > kDivergenceFactor * first;
+  if (iteration) {
+    return fmt::format(
+        "the multigrid iteration diverged on the {}^2 grid at cycle {} (residual {}, "
+        "force error {})",
+        record.points, record.cycle, finite_or_text(record.residual, "{:.3e}"),
+        finite_or_text(record.force_error, "{:.3g}"));
+  }
+  if (!(std::abs(record.force_error) >= kDivergedForceError)) return {};
+  // The pressure may have converged to a film that carries none of the load
+  // (M = 1e-3 on 33^2: residual 6e-20, force error -1): the balance is what failed.
+  const double carried = 1.0 + record.force_error;
+  return fmt::format(
+      "the force balance diverged on the {}^2 grid at cycle {}: the film carries {} "
+      "(force error {:.3g}; residual {:.3e})",
+      record.points, record.cycle,
+      carried < kNoLoadCarried ? std::string("none of the load")
+                               : fmt::format("{:.3g} times the load", carried),
+      record.force_error, record.residual);
+}
+
 bool RollingProblem::Impl::converge_on(int level, const Attempt& attempt, Iterate& best,
                                        const CycleMonitor& monitor) {
   double first = 0.0, lowest = std::numeric_limits<double>::infinity();
@@ -341,14 +369,7 @@ bool RollingProblem::Impl::converge_on(int level, const Attempt& attempt, Iterat
     const RollingCycle record = cycle_on(level, attempt.index);
     if (monitor) monitor(record);
     if (c == 1) first = record.residual;
-    if (!std::isfinite(record.residual) || !std::isfinite(h0) ||
-        record.residual > kDivergenceFactor * first ||
-        std::abs(record.force_error) >= kDivergedForceError)
-      throw StageDiverged(
-          fmt::format("the multigrid iteration diverged on the {}^2 grid at "
-                      "cycle {} (residual {}, force error {})",
-                      record.points, record.cycle, finite_or_text(record.residual, "{:.3e}"),
-                      finite_or_text(record.force_error, "{:.3g}")));
+    if (std::string why = divergence(record, first); !why.empty()) throw StageDiverged(why);
     if (record.residual < lowest) {
       lowest = record.residual;
       lowest_cycle = c;
