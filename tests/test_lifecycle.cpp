@@ -22,6 +22,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -230,6 +231,50 @@ TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
   r = run_into(file, "");
   EXPECT_EQ(r.err, "ehlsim: error: --out '" + file.string() + "' exists and is not a directory\n");
   EXPECT_EQ(r.exit_code, 2);
+}
+
+TEST(Lifecycle, RefusesADirectoryTheUserMayNotWrite) {
+  // A directory of mode 555 (the user's protection) was replaced by one of
+  // 755.  Root may write anywhere, so as root the runs go as the user nobody.
+  TempDir work;
+  const fs::path place = work / "place";
+  fs::create_directories(place);
+  std::string launcher;
+  // Debian's user and group nobody.
+  constexpr uid_t kNobody = 65534;
+  if (geteuid() == 0) {
+    ASSERT_EQ(::chown(place.c_str(), kNobody, kNobody), 0) << std::strerror(errno);
+    launcher = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+    if (ehlsim("--version", launcher).exit_code != 0)
+      GTEST_SKIP() << "the user nobody cannot run this build's ehlsim";
+  }
+  const fs::path writable = place / "writable";
+  ASSERT_EQ(
+      ehlsim("rolling --quiet --set grid.points=33 --out " + quote(writable.string()), launcher)
+          .exit_code,
+      0)
+      << "the user's runs work where it may write";
+  const fs::path locked = place / "locked";
+  fs::create_directories(locked);
+  if (geteuid() == 0) {
+    ASSERT_EQ(::chown(locked.c_str(), kNobody, kNobody), 0);
+  }
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                              fs::perms::group_exec | fs::perms::others_read |
+                              fs::perms::others_exec);
+  const std::string refusal = "ehlsim: error: --out '" + locked.string() +
+                              "' is a directory this user may not write (Permission denied): "
+                              "ehlsim replaces only a directory it may write; choose another "
+                              "--out, or change the directory's mode\n";
+  for (const std::string& command : std::vector<std::string>{
+           "rolling --quiet --set grid.points=33", "impact " + kTiny + "--set time.T_end=0.2"}) {
+    const Result r = ehlsim(command + " --out " + quote(locked.string()), launcher);
+    EXPECT_EQ(r.exit_code, 2) << command;
+    EXPECT_EQ(r.err, refusal) << command;
+  }
+  EXPECT_TRUE(fs::is_empty(locked));
+  EXPECT_EQ(fs::status(locked).permissions() & fs::perms::owner_write, fs::perms::none);
+  fs::permissions(locked, fs::perms::owner_all);  // for TempDir's removal
 }
 
 TEST(Lifecycle, ARunIntoASymbolicLinkLandsWhereItPoints) {

@@ -273,6 +273,20 @@ void settle_replacement(const fs::path& target, const fs::path& old) {
 
 }  // namespace
 
+namespace {
+/// A directory whose mode denies its owner's writes is one the user has
+/// protected: a run replaced a 555 directory with a 755 one (access() lets
+/// root write anywhere, so it protects only from other users' runs).
+void check_writable(const fs::path& dir) {
+  if (::access(dir.c_str(), W_OK) == 0) return;
+  throw ConfigError(
+      fmt::format("--out '{}' is a directory this user may not write ({}): ehlsim "
+                  "replaces only a directory it may write; choose another --out, or "
+                  "change the directory's mode",
+                  dir.string(), std::strerror(errno)));
+}
+}  // namespace
+
 void check_replaceable_run_directory(const fs::path& dir) {
   std::error_code ec;
   const fs::file_status status = fs::status(dir, ec);
@@ -280,6 +294,7 @@ void check_replaceable_run_directory(const fs::path& dir) {
   if (!fs::is_directory(status)) {
     throw ConfigError(fmt::format("--out '{}' exists and is not a directory", dir.string()));
   }
+  check_writable(dir);
   if (fs::is_empty(dir, ec)) return;
   const char* policy =
       "ehlsim writes only into a new or empty directory or over an earlier ehlsim run; "
@@ -372,6 +387,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
   if (fs::exists(status) && !fs::is_directory(status)) {
     throw ConfigError(fmt::format("--out '{}' exists and is not a directory", target_.string()));
   }
+  if (fs::exists(status)) check_writable(target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }

@@ -33,13 +33,14 @@ struct Result {
   std::string err;
 };
 
-/// Runs `ehlsim <args>` (args already quoted as needed) and captures everything.
-inline Result ehlsim(const std::string& args) {
+/// Runs `ehlsim <args>` (args already quoted as needed) and captures
+/// everything; `launcher` (a command and its options, e.g. setpriv's) runs it.
+inline Result ehlsim(const std::string& args, const std::string& launcher = "") {
   const TempDir capture("capture");
   const std::filesystem::path out = capture / "stdout";
   const std::filesystem::path err = capture / "stderr";
-  const std::string command = quote(EHLSIM_BINARY) + " " + args + " > " + quote(out.string()) +
-                              " 2> " + quote(err.string()) + " < /dev/null";
+  const std::string command = launcher + quote(EHLSIM_BINARY) + " " + args + " > " +
+                              quote(out.string()) + " 2> " + quote(err.string()) + " < /dev/null";
   const int status = std::system(command.c_str());
   Result r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
