@@ -374,6 +374,8 @@ TEST(RegistryErrors, OutOfRange) {
   EXPECT_EQ(set_error({"case.L=-0.5"}), "case.L = -0.5: must be >= 0 (--set)");
   EXPECT_EQ(set_error({"physical.nu1=0.7"}), "physical.nu1 = 0.7: must be in [0, 0.5] (--set)");
   EXPECT_EQ(set_error({"solver.max_cycles=0"}), "solver.max_cycles = 0: must be >= 1 (--set)");
+  EXPECT_EQ(set_error({"solver.tolerance=0.1"}),
+            "solver.tolerance = 0.1: must be in (0, 0.01] (--set)");
   EXPECT_EQ(set_error({"output.snapshot_times=[1.0, -2.0]"}),
             "output.snapshot_times = [1, -2]: every entry must be >= 0 (--set)");
   EXPECT_EQ(set_error({"case.M=nan"}), "case.M = nan: must be a number > 0 (--set)");

@@ -986,7 +986,7 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                            const std::string& max_cycles_doc) {
   r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
                      {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
-  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), kUnbounded, "",
+  r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), at_most(kMaxTolerance), "",
                    "converged when the scaled finest-grid residual is below this"));
   r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
                       max_cycles_doc));
