@@ -415,6 +415,17 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set case.M=3"),
                    "--set 'case.M=3': only spike.* keys apply to an analysis of a finished run");
+  // A bad spike setting is named where it was given: run.json, or --set.
+  write_file(dir / "empty" / "run.json",
+             R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {"filter": "x"}}})");
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "spike.filter = \"x\": must be one of \"butterworth\", \"gaussian\", "
+                   "\"none\" (parameters of '" +
+                       empty + "/run.json')");
+  write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set spike.filter=y"),
+                   "spike.filter = \"y\": must be one of \"butterworth\", \"gaussian\", "
+                   "\"none\" (--set)");
   // A rolling run has a run.json and a fields.nc, but no spike to track.
   const fs::path rolling = dir / "rolling";
   ASSERT_EQ(

@@ -74,10 +74,12 @@ class Inputs {
 };
 
 /// Reads the optional TOML file, applies the overrides in order and validates
-/// every key and value against `set`.  Throws ConfigError.
+/// every key and value against `set`.  Throws ConfigError, naming a value's
+/// place in the file, or `origin` for an override.
 [[nodiscard]] Inputs read_inputs(const ParameterSet& set,
                                  const std::optional<std::filesystem::path>& file,
-                                 const std::vector<std::string>& overrides);
+                                 const std::vector<std::string>& overrides,
+                                 std::string_view origin = kOverrideOrigin);
 
 /// The set as text for --help: every key with its default, range and doc.
 [[nodiscard]] std::string describe_parameters(const ParameterSet& set);

@@ -56,7 +56,6 @@ constexpr std::string_view kFft = "fft";
 constexpr std::string_view kDirect = "direct";
 
 /// Source name given to the values of --set overrides.
-constexpr std::string_view kOverrideOrigin = "--set";
 /// The largest config file read: a case is a few hundred bytes, a long
 /// output.snapshot_times list some kB; a runaway value of 10 MB is still read
 /// (to be refused with its key named, shortened).
@@ -561,13 +560,16 @@ std::string node_text(const toml::node& node) {
   return os.str();
 }
 
-/// Where a value came from: "file.toml:LINE:COL" or "--set".
-std::string node_origin(const toml::node& node) {
+/// Where a value came from: "file.toml:LINE:COL" for a node of the config
+/// file `file` ("" when there is none), else the origin its override was
+/// parsed with ("--set", or a file the overrides were taken from).
+std::string node_origin(const toml::node& node, std::string_view file) {
   const toml::source_region& src = node.source();
-  if (src.path && *src.path != kOverrideOrigin) {
+  if (!src.path) return std::string(kOverrideOrigin);
+  if (!file.empty() && *src.path == file) {
     return fmt::format("{}:{}:{}", *src.path, src.begin.line, src.begin.column);
   }
-  return std::string(kOverrideOrigin);
+  return *src.path;
 }
 
 std::string origin_suffix(const std::string& origin) {
@@ -664,10 +666,10 @@ ParameterValue convert_float_array(const ParameterSpec& spec, const toml::node& 
   return values;
 }
 
-Given convert(const ParameterSpec& spec, const toml::node& node) {
+Given convert(const ParameterSpec& spec, const toml::node& node, std::string_view file) {
   Given g;
   g.text = node_text(node);
-  g.origin = node_origin(node);
+  g.origin = node_origin(node, file);
   const ValueProblem fail{spec, g};
   switch (spec.type) {
     case ParameterType::Bool: {
@@ -733,7 +735,8 @@ toml::table parse_config_file(const std::filesystem::path& path) {
 }
 
 /// Puts one `section.name=value` override into the tree.
-void apply_override(toml::table& root, const std::string& assignment) {
+void apply_override(toml::table& root, const std::string& assignment, std::string_view origin,
+                    std::string_view file) {
   const std::size_t eq = assignment.find('=');
   const auto trim = [](std::string_view s) {
     constexpr std::string_view kSpace = " \t";
@@ -752,7 +755,7 @@ void apply_override(toml::table& root, const std::string& assignment) {
   // The value in TOML syntax; anything that is not a single TOML value is a string.
   std::optional<toml::table> parsed;
   try {
-    parsed = toml::parse("v = " + value, kOverrideOrigin);
+    parsed = toml::parse("v = " + value, origin);
   } catch (const toml::parse_error&) {
     parsed.reset();
   }
@@ -772,7 +775,8 @@ void apply_override(toml::table& root, const std::string& assignment) {
     target = existing->as_table();
     if (!target) {
       fail_value(section, node_text(*existing),
-                 fmt::format("must be a table (section [{}])", section), node_origin(*existing));
+                 fmt::format("must be a table (section [{}])", section),
+                 node_origin(*existing, file));
     }
   }
   if (parsed) {
@@ -785,7 +789,7 @@ void apply_override(toml::table& root, const std::string& assignment) {
 using GivenMap = Inputs::GivenMap;
 
 /// Checks the structure (sections, keys) first, then every value.
-GivenMap collect(const toml::table& root, const ParameterSet& set) {
+GivenMap collect(const toml::table& root, const ParameterSet& set, std::string_view file) {
   for (auto&& [section_key, section_node] : root) {
     const std::string section(section_key.str());
     const auto* table = section_node.as_table();
@@ -796,31 +800,33 @@ GivenMap collect(const toml::table& root, const ParameterSet& set) {
         throw ConfigError(
             fmt::format("unknown key '{}' (unknown section [{}]; known sections: {}){}",
                         echo_input(key), echo_input(section), section_list(set),
-                        origin_suffix(node_origin(first->second))),
+                        origin_suffix(node_origin(first->second, file))),
             key);
       }
       if (table) {
         throw ConfigError(
             fmt::format("unknown section '[{}]' (known sections: {}){}", echo_input(section),
-                        section_list(set), origin_suffix(node_origin(section_node))),
+                        section_list(set), origin_suffix(node_origin(section_node, file))),
             section);
       }
       throw ConfigError(
           fmt::format(
               "unknown key '{}' (keys belong to a section: {}; write [section] or section.key){}",
-              echo_input(section), section_list(set), origin_suffix(node_origin(section_node))),
+              echo_input(section), section_list(set),
+              origin_suffix(node_origin(section_node, file))),
           section);
     }
     if (!table) {
       fail_value(section, node_text(section_node),
-                 fmt::format("must be a table (section [{}])", section), node_origin(section_node));
+                 fmt::format("must be a table (section [{}])", section),
+                 node_origin(section_node, file));
     }
     for (auto&& [name, node] : *table) {
       const std::string key = section + "." + std::string(name.str());
       if (!set.find(key)) {
         throw ConfigError(
             fmt::format("unknown key '{}' (known keys in [{}]: {}){}", echo_input(key), section,
-                        keys_in_section(set, section), origin_suffix(node_origin(node))),
+                        keys_in_section(set, section), origin_suffix(node_origin(node, file))),
             key);
       }
     }
@@ -829,7 +835,7 @@ GivenMap collect(const toml::table& root, const ParameterSet& set) {
   for (auto&& [section_key, section_node] : root) {
     for (auto&& [name, node] : *section_node.as_table()) {
       const std::string key = std::string(section_key.str()) + "." + std::string(name.str());
-      given.emplace(key, convert(*set.find(key), node));
+      given.emplace(key, convert(*set.find(key), node, file));
     }
   }
   return given;
@@ -869,10 +875,11 @@ void Inputs::fail(const std::string& key, const std::string& problem) const {
 }
 
 Inputs read_inputs(const ParameterSet& set, const std::optional<std::filesystem::path>& file,
-                   const std::vector<std::string>& overrides) {
+                   const std::vector<std::string>& overrides, std::string_view origin) {
   toml::table root = file ? parse_config_file(*file) : toml::table{};
-  for (const auto& assignment : overrides) apply_override(root, assignment);
-  return Inputs(collect(root, set), set);
+  const std::string file_path = file ? file->string() : std::string();
+  for (const auto& assignment : overrides) apply_override(root, assignment, origin, file_path);
+  return Inputs(collect(root, set, file_path), set);
 }
 
 SolverSettings assemble_solver(const Inputs& in) {
@@ -1378,8 +1385,8 @@ void assemble_spike(const Inputs& in, ImpactConfig& c) {
 }  // namespace
 
 ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
-                         const std::vector<std::string>& overrides) {
-  const Inputs inputs = read_inputs(impact_parameters(), file, overrides);
+                         const std::vector<std::string>& overrides, std::string_view origin) {
+  const Inputs inputs = read_inputs(impact_parameters(), file, overrides, origin);
   ImpactConfig config;
   assemble_case(inputs, config);
   assemble_impact_lubricant(inputs, config);

@@ -109,6 +109,8 @@ inline constexpr double kMaxTolerance = 1e-2;
 /// inf").
 inline constexpr double kMinV0 = 1e-6;
 inline constexpr double kMaxV0 = 1e6;
+/// Where a `KEY=VALUE` override came from, as error messages name it.
+inline constexpr std::string_view kOverrideOrigin = "--set";
 /// Smallest coarsest multigrid level.
 inline constexpr int kMinCoarsestPoints = 5;
 
@@ -125,8 +127,10 @@ inline constexpr int kMinCoarsestPoints = 5;
 /// resolved.  time.dT stays 0 when not given (meaning: the mesh size) and
 /// time.T_end stays +inf when not given (meaning: until lift-off).
 /// Throws ConfigError on any bad input.
+/// `origin` names where the overrides came from in the error messages.
 [[nodiscard]] ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
-                                       const std::vector<std::string>& overrides);
+                                       const std::vector<std::string>& overrides,
+                                       std::string_view origin = kOverrideOrigin);
 
 /// The registry as text for --help: every key with its default, range and doc.
 [[nodiscard]] std::string describe_parameters();

@@ -40,9 +40,8 @@ namespace {
 
 constexpr std::string_view kSpikeSection = "spike.";
 
-/// The run's spike settings as overrides, then the caller's (spike.* only).
-std::vector<std::string> spike_overrides(const nlohmann::json& run,
-                                         const std::vector<std::string>& extra) {
+/// The run's spike settings as overrides.
+std::vector<std::string> recorded_spike_settings(const nlohmann::json& run) {
   std::vector<std::string> out;
   const nlohmann::json* settings = nullptr;
   if (run.contains("parameters") && run["parameters"].contains("spike")) {
@@ -53,6 +52,16 @@ std::vector<std::string> spike_overrides(const nlohmann::json& run,
       out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
     }
   }
+  return out;
+}
+
+/// The run's spike settings as overrides, then the caller's (spike.* only):
+/// a bad value of the run's is named as run.json's, not as --set.
+std::vector<std::string> spike_overrides(const nlohmann::json& run,
+                                         const std::vector<std::string>& extra,
+                                         const std::filesystem::path& run_file) {
+  std::vector<std::string> out = recorded_spike_settings(run);
+  (void)load_config(std::nullopt, out, fmt::format("parameters of '{}'", run_file.string()));
   for (const std::string& assignment : extra) {
     if (assignment.rfind(kSpikeSection, 0) != 0) {
       throw ConfigError(
@@ -130,7 +139,8 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
   const nlohmann::json run = read_run_json(run_file);
   check_impact_run(run, run_file);
-  const SpikeSettings settings = load_config(std::nullopt, spike_overrides(run, overrides)).spike;
+  const SpikeSettings settings =
+      load_config(std::nullopt, spike_overrides(run, overrides, run_file)).spike;
   const double Delta0 = run_parameter(run, "time", "Delta0", run_file);
   const double V0 = run_parameter(run, "time", "V0", run_file);
   // A run's own start (time.V0 = 0 in an edited run.json failed in Newmark, exit 1).
