@@ -506,8 +506,8 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
 }
 
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
-  // One cycle cannot converge anything: the message names the cycles and,
-  // at the default deformation updates, the per-colour update.
+  // One cycle cannot converge anything: the message names the cycles and
+  // the other deformation update.
   RollingConfig config = rolling_case(100, 10, 33);
   config.max_cycles = 1;
   const std::string hint = "--set solver.deformation_updates=colour";
@@ -519,8 +519,14 @@ TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
                          hint),
             std::string::npos)
       << message;
+  // With the per-colour update, the other way round.
   config.relaxation.deformation_each_colour = true;
-  EXPECT_EQ(failure_message(config).find(hint), std::string::npos) << "it is in use";
+  const std::string colour = failure_message(config);
+  EXPECT_EQ(colour.find(hint), std::string::npos) << colour;
+  EXPECT_NE(colour.find("the deformation updated once per sweep (--set "
+                        "solver.deformation_updates=sweep"),
+            std::string::npos)
+      << colour;
   // Nor where the domain or the divergence is the reason.
   EXPECT_EQ(failure_message(rolling_case(1, 0, 33)).find(hint), std::string::npos);
 }

@@ -492,16 +492,21 @@ std::string rigid_hint(const RollingConfig& c, double mesh) {
   return {};
 }
 
-/// What else to try when an elastic contact's iteration ran out of cycles at
-/// the default deformation updates (not when its domain is the reason).
-/// M = 10, L = 20 on 1025^2: 200 cycles ended at residual 0.28, and the
-/// per-colour update converged it in 224 (docs/validation.md, "M = 10,
-/// L = 20: where the residual stays").
+/// What else to try when an elastic contact's iteration ran out of cycles
+/// (not when its domain is the reason): the other deformation update.  At
+/// L = 20 on 1025^2 neither converges every case: M = 10 ran out of 200
+/// cycles at residual 0.28 with the default and converged in 224 with the
+/// per-colour update, M = 20 converged in 76 with the default and ran out of
+/// 400 with the per-colour one (docs/validation.md, "M = 10, L = 20: where
+/// the residual stays").
 std::string relaxation_hint(const RollingConfig& c) {
-  if (c.relaxation.deformation_each_colour) return {};
-  return "; more cycles (solver.max_cycles), or the deformation updated before each colour of "
-         "the relaxation (--set solver.deformation_updates=colour: M = 10, L = 20 on 1025^2 "
-         "converged in 224 cycles so, where the default did not in 200), may converge it";
+  const bool each_colour = c.relaxation.deformation_each_colour;
+  return fmt::format(
+      "; more cycles (solver.max_cycles), or the deformation updated {} (--set "
+      "solver.deformation_updates={}: at L = 20 on 1025^2 each of the two converges a case the "
+      "other does not), may converge it",
+      each_colour ? "once per sweep" : "before each colour of the relaxation",
+      each_colour ? "sweep" : "colour");
 }
 }  // namespace
 
