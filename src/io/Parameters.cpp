@@ -55,7 +55,6 @@ constexpr std::string_view kCycleW = "W";
 constexpr std::string_view kFft = "fft";
 constexpr std::string_view kDirect = "direct";
 
-/// Source name given to the values of --set overrides.
 /// The largest config file read: a case is a few hundred bytes, a long
 /// output.snapshot_times list some kB; a runaway value of 10 MB is still read
 /// (to be refused with its key named, shortened).

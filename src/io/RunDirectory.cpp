@@ -271,9 +271,6 @@ void settle_replacement(const fs::path& target, const fs::path& old) {
   if (!old.empty()) fs::remove_all(old, ec);
 }
 
-}  // namespace
-
-namespace {
 /// A directory whose mode denies its owner's writes is one the user has
 /// protected: a run replaced a 555 directory with a 755 one (access() lets
 /// root write anywhere, so it protects only from other users' runs).
@@ -285,6 +282,7 @@ void check_writable(const fs::path& dir) {
                   "change the directory's mode",
                   dir.string(), std::strerror(errno)));
 }
+
 }  // namespace
 
 void check_replaceable_run_directory(const fs::path& dir) {
