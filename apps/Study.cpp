@@ -472,10 +472,10 @@ struct StudyPlan {
 
 /// Each case checks its memory again when it starts; checked here, a case
 /// that cannot fit ends the study before any case runs (ConfigError naming it).
-template <class Check>
-void check_case_memory(const Case& c, Check check) {
+template <class Config>
+void check_case_memory(const Case& c, const Config& config) {
   try {
-    (void)check();
+    (void)check_run_memory(config, available_memory_mb());
   } catch (const ConfigError& e) {
     throw ConfigError(fmt::format("case {}: {}", c.name, e.what()), e.key());
   }
@@ -487,11 +487,10 @@ StudyPlan plan_study(const StudyOptions& options) {
   StudyPlan plan{study_cases(options, out), {}, {}};
   for (const Case& c : plan.cases) {
     plan.reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError
-    check_case_memory(c, [&] { return check_run_memory(plan.reference, available_memory_mb()); });
+    check_case_memory(c, plan.reference);
   }
   for (Case& c : rolling_cases(options, out)) {
-    const RollingConfig config = load_rolling_config(std::nullopt, c.overrides);
-    check_case_memory(c, [&] { return check_run_memory(config, available_memory_mb()); });
+    check_case_memory(c, load_rolling_config(std::nullopt, c.overrides));
     plan.cases.push_back(std::move(c));
   }
   plan.script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
