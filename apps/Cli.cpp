@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <string>
 
-#include "io/Parameters.hpp"
+#include "config/Parameters.hpp"
 
 namespace cli {
 

@@ -33,7 +33,7 @@ void print_out(fmt::format_string<Args...> format, Args&&... args) {
 /// "ehlsim: error: <message>" as one line on stderr, after what stdout holds
 /// so far (as print_warnings).  Words longer than any
 /// path (a runaway value that reached the message unshortened, e.g. through
-/// CLI11) are shortened like echo_input (io/Parameters.hpp) does.
+/// CLI11) are shortened like echo_input (config/Parameters.hpp) does.
 void print_error(std::string_view message);
 
 /// "ehlsim: warning: <line>" on stderr for each of `warnings` (what a finished

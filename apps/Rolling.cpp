@@ -8,12 +8,12 @@
 #include <string>
 
 #include "Cli.hpp"
+#include "config/Parameters.hpp"
+#include "config/RollingParameters.hpp"
 #include "impact/ImpactObserver.hpp"
 #include "io/Interrupt.hpp"
 #include "io/MemoryGuard.hpp"
-#include "io/Parameters.hpp"
 #include "io/RollingOutput.hpp"
-#include "io/RollingParameters.hpp"
 #include "io/RunDirectory.hpp"
 #include "rolling/FilmFormula.hpp"
 #include "rolling/RollingProblem.hpp"

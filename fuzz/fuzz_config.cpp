@@ -1,5 +1,5 @@
 // Fuzzes the configuration reader: a TOML file plus `--set KEY=VALUE`
-// overrides into an ImpactConfig (io/Parameters.hpp).  A bad input must end in
+// overrides into an ImpactConfig (config/Parameters.hpp).  A bad input must end in
 // a ConfigError; anything else (a crash, undefined behaviour, another
 // exception, a hang) is a finding.
 //
@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "FuzzFile.hpp"
-#include "io/Parameters.hpp"
+#include "config/Parameters.hpp"
 
 namespace {
 

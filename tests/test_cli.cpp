@@ -34,6 +34,7 @@ using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
 using ehlsim::testing::TempDir;
+using ehlsim::testing::write_file;
 
 /// The cores this process may run on (the bound of study --jobs).
 int available_cores() {
@@ -41,11 +42,6 @@ int available_cores() {
   CPU_ZERO(&set);
   if (sched_getaffinity(0, sizeof(set), &set) == 0) return CPU_COUNT(&set);
   return static_cast<int>(std::thread::hardware_concurrency());
-}
-
-fs::path write_file(const fs::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-  return path;
 }
 
 /// Bad input: exit code 2 and exactly `message` on one line of stderr.

@@ -12,7 +12,7 @@
 #include <string>
 #include <utility>
 
-#include "io/RollingParameters.hpp"
+#include "config/RollingParameters.hpp"
 #include "rolling/DryEllipticHertz.hpp"
 #include "rolling/FilmFormula.hpp"
 #include "rolling/RollingProblem.hpp"
@@ -656,7 +656,7 @@ TEST(RollingCli, RejectsANonSquareDomain) {
 
 TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
   // The dry Hertz ellipse must fit into the domain and the finest mesh must
-  // resolve it (io/RollingParameters): exit 2 at once, with one line.
+  // resolve it (config/RollingParameters): exit 2 at once, with one line.
   const auto expect_refused = [](const std::string& sets, const std::string& message) {
     const auto r = testing::ehlsim("rolling --quiet " + sets + " --out /nonexistent/x");
     EXPECT_EQ(r.exit_code, 2) << sets;

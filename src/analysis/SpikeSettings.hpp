@@ -2,7 +2,7 @@
 // Settings of the pressure-spike analysis (section 3 of Lubrecht & Venner 2022;
 // docs/model.md, "Spike analysis").  Values only: defaults, ranges and
 // documentation of the `spike.*` keys live once, in the parameter registry
-// (io/Parameters).
+// (config/Parameters).
 namespace ehlsim {
 
 enum class SpikeFilter { Butterworth, Gaussian, None };

@@ -3,7 +3,7 @@
 // (plus the physical inputs when the case was given in physical units).
 //
 // This struct carries values only: defaults, ranges and documentation of every
-// key live once, in the parameter registry (io/Parameters).
+// key live once, in the parameter registry (config/Parameters).
 #include <limits>
 #include <optional>
 #include <string>

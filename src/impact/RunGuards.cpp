@@ -75,7 +75,7 @@ double default_max_steps_exact(double Delta0, double V0, double dT) {
 
 int default_max_steps(double Delta0, double V0, double dT) {
   // Saturated: a start too far or too slow for an int is refused as input
-  // (io/Parameters.cpp, kMaxTimeSteps), never cast out of range.
+  // (config/Parameters.cpp, kMaxTimeSteps), never cast out of range.
   const double steps = default_max_steps_exact(Delta0, V0, dT);
   return steps < std::numeric_limits<int>::max() ? static_cast<int>(steps)
                                                  : std::numeric_limits<int>::max();

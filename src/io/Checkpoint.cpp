@@ -14,12 +14,12 @@
 #include <utility>
 #include <vector>
 
+#include "config/Parameters.hpp"
 #include "grid/FieldExtrema.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/FieldWriter.hpp"
 #include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
-#include "io/Parameters.hpp"
 
 namespace ehlsim {
 

@@ -8,9 +8,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "config/Parameters.hpp"
 #include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
-#include "io/Parameters.hpp"
 
 namespace ehlsim {
 

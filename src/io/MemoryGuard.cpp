@@ -7,9 +7,9 @@
 #include <sstream>
 #include <string>
 
+#include "config/Parameters.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "io/FieldWriter.hpp"
-#include "io/Parameters.hpp"
 
 namespace ehlsim {
 

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <utility>
 
+#include "config/RollingParameters.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
 #include "io/FieldWriter.hpp"
-#include "io/RollingParameters.hpp"
 #include "rolling/FilmFormula.hpp"
 
 namespace ehlsim {

@@ -10,11 +10,11 @@
 #include <optional>
 
 #include "analysis/SpikeAnalysis.hpp"
+#include "config/Parameters.hpp"
 #include "grid/FieldExtrema.hpp"
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
-#include "io/Parameters.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"

@@ -21,10 +21,10 @@
 #include <string>
 #include <system_error>
 
+#include "config/Parameters.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
-#include "io/Parameters.hpp"
 
 namespace ehlsim {
 

@@ -7,9 +7,9 @@
 #include <string>
 #include <utility>
 
+#include "config/Parameters.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "io/AtomicFile.hpp"
-#include "io/Parameters.hpp"
 
 namespace ehlsim {
 

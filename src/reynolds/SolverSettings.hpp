@@ -1,6 +1,6 @@
 #pragma once
 // The multigrid settings every mode reads from its [solver] section (declared
-// once for all modes: io/ParameterSet.hpp, add_solver_parameters).
+// once for all modes: config/ParameterSet.hpp, add_solver_parameters).
 #include "reynolds/FaceMean.hpp"
 #include "reynolds/LineRelaxation.hpp"
 

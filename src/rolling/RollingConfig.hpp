@@ -7,7 +7,7 @@
 // force balance Int P = 2 pi / 3, and only the undeformed gap changes, to
 // X^2/2 + D Y^2/2 (docs/model.md).
 //
-// Values only: defaults, ranges and docs live once, in io/RollingParameters.
+// Values only: defaults, ranges and docs live once, in config/RollingParameters.
 #include <optional>
 
 #include "reynolds/SolverSettings.hpp"

@@ -5,20 +5,12 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "support/TempDir.hpp"
+#include "support/TextFiles.hpp"
 
 namespace ehlsim::testing {
-
-inline std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 /// `s` quoted for the shell.
 inline std::string quote(const std::string& s) {

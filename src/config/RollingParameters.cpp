@@ -1,12 +1,12 @@
-#include "io/RollingParameters.hpp"
+#include "config/RollingParameters.hpp"
 
 #include <fmt/format.h>
 
 #include <cmath>
 #include <numbers>
 
+#include "config/Parameters.hpp"
 #include "impact/Scaling.hpp"
-#include "io/Parameters.hpp"
 #include "rolling/DryEllipticHertz.hpp"
 #include "rolling/RollingProblem.hpp"
 
@@ -134,7 +134,7 @@ void assemble_rolling_grid(const Inputs& in, RollingConfig& c) {
 }
 
 /// An elastic contact's dry Hertz ellipse must fit into the domain, as the
-/// impact's dry contact must (io/Parameters.cpp): a contact cut by the edges,
+/// impact's dry contact must (config/Parameters.cpp): a contact cut by the edges,
 /// where P = 0, leaves the force balance nothing but a film of the domain
 /// (a ball in [-0.8, 0.8]^2 ran out of cycles with 35 % of the load at the
 /// edges).  A rigid body has no dry contact.

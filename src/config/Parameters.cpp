@@ -1,4 +1,4 @@
-#include "io/Parameters.hpp"
+#include "config/Parameters.hpp"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -18,12 +18,12 @@
 #include <system_error>
 #include <utility>
 
+#include "config/ParameterSet.hpp"
 #include "dynamics/DryHertz.hpp"
 #include "grid/Grid.hpp"
 #include "grid/NumberText.hpp"
 #include "impact/RunGuards.hpp"
 #include "impact/Scaling.hpp"
-#include "io/ParameterSet.hpp"
 #include "rheology/Lubricant.hpp"
 
 namespace ehlsim {

@@ -1,9 +1,9 @@
 #pragma once
 // The machinery every mode's configuration shares: a set of declared keys
-// (ParameterSpec, io/Parameters.hpp), read from an optional TOML file and
+// (ParameterSpec, config/Parameters.hpp), read from an optional TOML file and
 // `--set KEY=VALUE` overrides, validated against their declarations, and
 // handed to the mode as typed Inputs.  `ehlsim impact` and `ehlsim rolling`
-// each declare their set once (io/Parameters.cpp, io/RollingParameters.cpp);
+// each declare their set once (config/Parameters.cpp, config/RollingParameters.cpp);
 // the declarations that both modes have (the lubricant, the solids, the
 // multigrid settings) are added by the shared add_*_parameters functions.
 #include <filesystem>
@@ -14,8 +14,8 @@
 #include <string_view>
 #include <vector>
 
+#include "config/Parameters.hpp"
 #include "impact/Scaling.hpp"
-#include "io/Parameters.hpp"
 #include "reynolds/SolverSettings.hpp"
 #include "rheology/Lubricant.hpp"
 

@@ -1,15 +1,15 @@
 #pragma once
 // The keys of `ehlsim rolling`, declared once (default, range, doc) like the
-// impact's (io/Parameters.hpp): they drive the TOML reader, --set, --help and
+// impact's (config/Parameters.hpp): they drive the TOML reader, --set, --help and
 // the echo into run.json.  [lubricant] and [solver] are the keys both modes
-// share (io/ParameterSet.hpp).
+// share (config/ParameterSet.hpp).
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "io/ParameterSet.hpp"
+#include "config/ParameterSet.hpp"
 #include "rolling/RollingConfig.hpp"
 
 namespace ehlsim {
