@@ -1,25 +1,104 @@
 #pragma once
 // The machinery every mode's configuration shares: a set of declared keys
-// (ParameterSpec, config/Parameters.hpp), read from an optional TOML file and
-// `--set KEY=VALUE` overrides, validated against their declarations, and
-// handed to the mode as typed Inputs.  `ehlsim impact` and `ehlsim rolling`
-// each declare their set once (config/Parameters.cpp, config/RollingParameters.cpp);
-// the declarations that both modes have (the lubricant, the solids, the
-// multigrid settings) are added by the shared add_*_parameters functions.
+// (ParameterSpec), read from an optional TOML file and `--set KEY=VALUE`
+// overrides, validated against their declarations, and handed to the mode as
+// typed Inputs (config/ParameterSet.cpp).  `ehlsim impact` and `ehlsim
+// rolling` each declare their set once (config/Parameters.cpp,
+// config/RollingParameters.cpp); the declarations that both modes have (the
+// lubricant, the solids, the multigrid settings) are added by the shared
+// add_*_parameters functions (config/SharedParameters.cpp).
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
-#include "config/Parameters.hpp"
 #include "impact/Scaling.hpp"
 #include "reynolds/SolverSettings.hpp"
 #include "rheology/Lubricant.hpp"
 
 namespace ehlsim {
+
+/// A bad input: unknown key, wrong type, value out of range, inconsistent
+/// combination, unreadable or malformed file.  what() is one line that names
+/// the full dotted key, the value and what is allowed, e.g.
+/// "case.M = -3: must be > 0 (case.toml:2:5)".
+class ConfigError : public std::runtime_error {
+ public:
+  explicit ConfigError(const std::string& message, std::string key = {});
+  /// The dotted key the error is about ("" for file-level errors).
+  [[nodiscard]] const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
+
+/// A user's input (a value, a key, an option's argument) as an error message
+/// echoes it: in full up to kEchoMaxChars characters, else its start and
+/// "... (N bytes)", so that a runaway value does not flood the terminal.
+inline constexpr std::size_t kEchoMaxChars = 80;
+[[nodiscard]] std::string echo_input(std::string_view text);
+
+enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
+
+/// A parameter value as the registry stores it (defaults, validated inputs).
+using ParameterValue = std::variant<bool, int, double, std::string, std::vector<double>>;
+
+/// One end of an allowed interval.
+struct Bound {
+  double value = 0.0;
+  bool inclusive = false;
+};
+
+struct ParameterSpec {
+  std::string key;  ///< "section.name"
+  ParameterType type = ParameterType::Float;
+  std::optional<ParameterValue> default_value;  ///< none: optional input or derived
+  std::string default_text;                     ///< shown by --help when there is no default value
+  std::optional<Bound> lower;                   ///< Float, Int, FloatArray entries
+  std::optional<Bound> upper;
+  bool power_of_two_plus_one = false;  ///< Int: 2^k + 1
+  bool allow_infinite = false;         ///< Float: +inf allowed
+  std::vector<std::string> choices;    ///< Enum: the allowed strings
+  std::string units;                   ///< physical units, "" if dimensionless
+  std::string doc;                     ///< one line
+
+  [[nodiscard]] std::string_view section() const;
+  [[nodiscard]] std::string_view name() const;
+  /// What is allowed, as in the error messages: "> 0", "in [0, 0.5]",
+  /// "one of \"barus\", \"roelands\"", "2^k + 1 between 9 and 4097", ...
+  [[nodiscard]] std::string allowed() const;
+  /// The default as --help shows it (TOML syntax, or a description).
+  [[nodiscard]] std::string default_description() const;
+};
+
+struct SectionSpec {
+  std::string name;
+  std::string doc;
+};
+
+/// Grid sizes the solver accepts: 2^k + 1 between these bounds.
+inline constexpr int kMinGridPoints = 9;
+inline constexpr int kMaxGridPoints = 4097;
+/// Most relaxation sweeps before or after the coarse-grid correction.  A
+/// signal is acted on between cycles, so one cycle must end in reasonable
+/// time (solver.pre_sweeps = 2e9 ran on after SIGTERM); more sweeps never paid
+/// (docs/performance.md: 5 + 3 cost more work than 3 + 2 on 1025^2).
+inline constexpr int kMaxSweeps = 20;
+/// The largest solver.tolerance.  The rolling contact stops when both the
+/// residual and the force error are below it, and the impact's measure
+/// starts a step at about 1e-2 (2.6e-2 on 257^2): above 1e-2 a run ends with
+/// the load unbalanced by percents (rolling M = 100, L = 10 on 33^2: force
+/// error 4.9 % at 0.1, 20 % at 1e300, both with exit 0).
+inline constexpr double kMaxTolerance = 1e-2;
+/// Where a `KEY=VALUE` override came from, as error messages name it.
+inline constexpr std::string_view kOverrideOrigin = "--set";
+/// Smallest coarsest multigrid level.
+inline constexpr int kMinCoarsestPoints = 5;
 
 /// The keys of one mode: its sections in --help order and their keys.
 struct ParameterSet {
@@ -140,6 +219,12 @@ void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettin
 /// The SolverSettings of validated [solver] inputs (checks coarsest_points
 /// against grid.points and pre_sweeps + post_sweeps >= 1).
 [[nodiscard]] SolverSettings assemble_solver(const Inputs& in);
+/// The TOML strings of the enumerations (as in the input files).
+[[nodiscard]] std::string_view viscosity_model_text(ViscosityModel model);
+[[nodiscard]] std::string_view density_model_text(DensityModel model);
+[[nodiscard]] std::string_view cycle_type_text(CycleType cycle);
+[[nodiscard]] std::string_view deformation_method_text(DeformationMethod method);
+
 /// The echo of the SolverSettings for run.json.
 [[nodiscard]] nlohmann::json solver_settings_json(const SolverSettings& settings);
 
