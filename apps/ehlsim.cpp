@@ -189,9 +189,12 @@ std::string resume_command(const ImpactOptions& options, const std::filesystem::
   return command;
 }
 
-/// What the run leaves for a restart when it does not complete.
+/// What the run leaves for a restart when it does not complete: the last
+/// checkpoint it wrote, else the one it was restarted from (still there).
 struct KeptCheckpoint {
-  int step = 0;  ///< 0: none written by this run
+  int step = 0;  ///< 0: none
+  std::filesystem::path path;
+  bool written = false;  ///< by this run (DIR.checkpoint.nc)
 };
 
 /// Runs the case into the staging directory of `run_dir` and publishes it.
@@ -222,13 +225,13 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   // Checkpoints go to DIR.checkpoint.nc: DIR keeps the earlier run's until this one publishes.
   problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
     write_checkpoint(run_dir.checkpoint(), state, parameters);
-    if (kept.step == 0 && config.checkpoint_every > 0)
+    if (!kept.written && config.checkpoint_every > 0)
       output.add_file("checkpoint", kCheckpointFile);
-    kept.step = state.step;
+    kept = {state.step, run_dir.checkpoint(), true};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  run_dir.publish(config.checkpoint_every > 0 && kept.step > 0);
+  run_dir.publish(config.checkpoint_every > 0 && kept.written);
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
     cli::print_warnings(summary.warnings);
@@ -238,11 +241,10 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
 
 /// The one line of a run stopped by `signal` after its last step, before the
 /// swap (io/RunDirectory.hpp); its exit code.
-int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept,
-                       const std::filesystem::path& kept_path, int signal) {
+int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept, int signal) {
   const std::string next = kept.step > 0
                                ? fmt::format("resume from the checkpoint of step {} with: {}",
-                                             kept.step, resume_command(options, kept_path))
+                                             kept.step, resume_command(options, kept.path))
                                : std::string("no checkpoint was written: run the command again");
   std::fprintf(stderr,
                "ehlsim: interrupted by %s after the last step, before the run was published: "
@@ -317,8 +319,10 @@ int run_impact(const ImpactOptions& options) {
                 checkpoint->state.step, checkpoint->state.ball.T);
   }
   const nlohmann::json invocation = invocation_json(options, checkpoint, memory);
+  // A restarted run that fails before its first checkpoint can be resumed
+  // from the one it started from.
   KeptCheckpoint kept;
-  const std::filesystem::path kept_path = run_dir->checkpoint();
+  if (checkpoint) kept = {checkpoint->state.step, options.restart_file, false};
   try {
     simulate(options, config, checkpoint, *run_dir, invocation, kept);
   } catch (const RunInterrupted& e) {
@@ -332,19 +336,19 @@ int run_impact(const ImpactOptions& options) {
     } else {
       std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
                    signal_name(signal).c_str(), e.step, e.T,
-                   resume_command(options, kept_path).c_str());
+                   resume_command(options, kept.path).c_str());
     }
     return exit_code_for_signal(signal);
   } catch (const PublishInterrupted& e) {
     run_dir.reset();  // the staging directory goes; DIR is as it was
-    return report_unpublished(options, kept, kept_path, e.signal);
+    return report_unpublished(options, kept, e.signal);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
     if (kept.step == 0) throw;
     run_dir.reset();
     print_error(fmt::format("{}; resume from the checkpoint of step {} with: {}", e.what(),
-                            kept.step, resume_command(options, kept_path)));
+                            kept.step, resume_command(options, kept.path)));
     return kExitFailure;
   }
   return kExitOk;

@@ -1509,6 +1509,8 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   fs::create_directories(dir / "run" / "gauss");
   write_file(dir / "run" / "gauss" / "spike_profiles.csv", "x");  // ehlsim spike --out run/gauss
   EXPECT_EQ(message(dir / "run"), "accepted");
+  write_file(dir / "run" / "rolling.png", "x");  // scripts/plot_rolling.py's figure
+  EXPECT_EQ(message(dir / "run"), "accepted");
   write_file(dir / "run" / "gauss" / "plot.png", "x");
   EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
                                       (dir / "run" / "gauss" / "plot.png").string() +

@@ -617,6 +617,19 @@ TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
   EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 4);
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+  // Resumed as the message says, the run fails again at step 5, before its
+  // next checkpoint: the one it started from is still there, and named.
+  const Result again = run_into(run,
+                                "--set output.checkpoint_every=2 --set time.max_steps=5 "
+                                "--restart " +
+                                    quote(kept.string()));
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("no lift-off after 5 steps"), std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("; resume from the checkpoint of step 4 with: "), std::string::npos)
+      << again.err;
+  EXPECT_NE(again.err.find("--restart " + kept.string()), std::string::npos) << again.err;
+  EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 4);
+  EXPECT_EQ(contents(run), before);
 }
 
 /// The rows of timeseries.csv (without the header).

@@ -43,12 +43,14 @@ constexpr std::size_t kLongestPidDigits = 7;
 /// Links followed from --out before a chain counts as a loop (Linux's own limit, ELOOP).
 constexpr int kMaxLinkHops = 40;
 
-/// Every file name ehlsim writes into a run directory (impact, spike, rolling).
+/// Every file name ehlsim writes into a run directory (impact, spike,
+/// rolling), and the figure that scripts/plot_rolling.py puts beside a
+/// rolling run's files by default: made from the run, it goes with it.
 const std::set<std::string, std::less<>>& ehlsim_file_names() {
   static const std::set<std::string, std::less<>> names = {
       "timeseries.csv", "spike.csv",           "fields.nc",          "run.json",
       "checkpoint.nc",  "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv",
-      "profile_x.csv",  "profile_y.csv",       "convergence.csv"};
+      "profile_x.csv",  "profile_y.csv",       "convergence.csv",    "rolling.png"};
   return names;
 }
 
