@@ -155,11 +155,12 @@ void print_summary(const RunSummary& s, const RunOutput& output,
       s.max_force, s.T_max_force, s.min_h_center, s.T_min_h_center, s.impulse);
   print_out("{} steps, {} snapshots, {:.1f} s; output in {}\n", s.steps, output.snapshots_written(),
             output.elapsed_seconds(), directory.string());
+  const auto steps = [](int n) { return fmt::format("{} step{}", n, n == 1 ? "" : "s"); };
   if (s.unconverged_steps > 0 || s.retried_steps > 0)
     print_out(
-        "{} steps ended above solver.tolerance (see the residual column of timeseries.csv), "
-        "{} steps were solved again with more damping\n",
-        s.unconverged_steps, s.retried_steps);
+        "{} ended above solver.tolerance (see the residual column of timeseries.csv), {} "
+        "solved again with more damping\n",
+        steps(s.unconverged_steps), steps(s.retried_steps));
 }
 
 /// `arg` for a shell: quoted unless it is made of safe characters only.
