@@ -272,10 +272,13 @@ nlohmann::json invocation_json(const ImpactOptions& options,
 }
 
 /// Reads the checkpoint of --restart into `checkpoint` (in a child process
-/// first: io/IsolatedIo.hpp).  Returns kExitOk, or the exit code after its
-/// one line: 2 for a file that cannot be read (damaged, or one the NetCDF/HDF5
-/// library crashes or hangs on), 128 + the signal for a signal meanwhile.
-int read_restart_checkpoint(const ImpactOptions& options, std::optional<Checkpoint>& checkpoint) {
+/// first: io/IsolatedIo.hpp) and checks that it continues `config`'s case.
+/// Returns kExitOk, or the exit code after its one line: 2 for a file that
+/// cannot be read (damaged, or one the NetCDF/HDF5 library crashes or hangs
+/// on), 128 + the signal for a signal meanwhile.  Throws ConfigError for a
+/// checkpoint of another case.
+int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& config,
+                            std::optional<Checkpoint>& checkpoint) {
   try {
     checkpoint = read_untrusted_checkpoint(options.restart_file);
   } catch (const PreReadInterrupted& e) {
@@ -289,6 +292,15 @@ int read_restart_checkpoint(const ImpactOptions& options, std::optional<Checkpoi
     print_error(e.what());  // names the file, and the field of a damaged one
     return kExitBadInput;
   }
+  check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
+                           options.restart_file);
+  // A run to a time the checkpoint has passed ran one step and ended at
+  // once, with exit 0 (time.T_end = 3 from T = 4).
+  if (std::isfinite(config.T_end) && !(config.T_end > checkpoint->state.ball.T))
+    throw ConfigError(fmt::format("time.T_end = {:g}: must be later than the time of checkpoint "
+                                  "'{}', T = {:.6g}",
+                                  config.T_end, options.restart_file, checkpoint->state.ball.T),
+                      "time.T_end");
   return kExitOk;
 }
 
@@ -300,16 +312,8 @@ int run_impact(const ImpactOptions& options) {
   const MemoryBudget memory = check_run_memory(config, available_memory_mb());
   std::optional<Checkpoint> checkpoint;
   if (!options.restart_file.empty()) {
-    if (const int code = read_restart_checkpoint(options, checkpoint); code != kExitOk) return code;
-    check_restart_compatible(checkpoint->parameters, effective_parameters_json(config),
-                             options.restart_file);
-    // A run to a time the checkpoint has passed ran one step and ended at
-    // once, with exit 0 (time.T_end = 3 from T = 4).
-    if (std::isfinite(config.T_end) && !(config.T_end > checkpoint->state.ball.T))
-      throw ConfigError(fmt::format("time.T_end = {:g}: must be later than the time of checkpoint "
-                                    "'{}', T = {:.6g}",
-                                    config.T_end, options.restart_file, checkpoint->state.ball.T),
-                        "time.T_end");
+    const int code = read_restart_checkpoint(options, config, checkpoint);
+    if (code != kExitOk) return code;
   }
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);
