@@ -465,6 +465,33 @@ TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
                        "before is -inf)");
 }
 
+TEST(Cli, SpikeFilesGoIntoTheRunOrADirectoryOfTheirOwn) {
+  TempDir dir;
+  const fs::path run = dir / "run", other = dir / "other";
+  ASSERT_EQ(tiny_run(run, "--set time.T_end=0.2").exit_code, 0);
+  ASSERT_EQ(tiny_run(other, "--set time.T_end=0.2").exit_code, 0);
+  const std::string where =
+      " go into the run directory (the default) or a directory of their own, such as RUN/gauss";
+  // Beside another run's results they would describe a run that is not there.
+  expect_bad_input(
+      ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote(other.string())),
+      "--out '" + other.string() +
+          "' is another run's directory (it holds a "
+          "run.json): the spike files of '" +
+          run.string() + "'" + where);
+  // A directory that holds the run would be made anew as a whole.
+  const std::string parent = (run / "..").string();
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote(parent)),
+                   "--out '" + parent + "' holds the run directory '" + run.string() +
+                       "': the spike files" + where);
+  EXPECT_FALSE(fs::exists(other / "spike_profiles.csv"));
+  ASSERT_EQ(
+      ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote((run / "gauss").string()))
+          .exit_code,
+      0);
+  EXPECT_TRUE(fs::exists(run / "gauss" / "spike_profiles.csv"));
+}
+
 TEST(Cli, SpikeFilesOfARun) {
   TempDir dir;
   const fs::path run = dir / "run";

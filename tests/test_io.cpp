@@ -2,6 +2,7 @@
 // checkpoints and fields, the progress line, the RunOutput observer, the run
 // directory transaction and its lock, the memory guard, the thread budget and
 // the signal flag.
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <netcdf.h>
@@ -14,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +29,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "config/Parameters.hpp"
@@ -1509,6 +1512,8 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   fs::create_directories(dir / "run" / "gauss");
   write_file(dir / "run" / "gauss" / "spike_profiles.csv", "x");  // ehlsim spike --out run/gauss
   EXPECT_EQ(message(dir / "run"), "accepted");
+  write_file(dir / "run" / ".gauss.lock", "pid 1");  // the lock of a spike --out run/gauss
+  EXPECT_EQ(message(dir / "run"), "accepted");
   write_file(dir / "run" / "rolling.png", "x");  // scripts/plot_rolling.py's figure
   EXPECT_EQ(message(dir / "run"), "accepted");
   write_file(dir / "run" / "gauss" / "plot.png", "x");
@@ -1618,6 +1623,73 @@ TEST(RunDirectory, AnAmendmentReplacesItsFilesAndKeepsEverythingElse) {
     out.publish();
   }
   EXPECT_EQ(names_in(fresh), std::set<std::string>{"axis_profiles.csv"});
+}
+
+/// The mode and modification time of `path`.
+std::pair<fs::perms, std::int64_t> mode_and_mtime(const fs::path& path) {
+  struct stat st {};
+  EXPECT_EQ(::stat(path.c_str(), &st), 0) << path;
+  return {static_cast<fs::perms>(st.st_mode & 07777), static_cast<std::int64_t>(st.st_mtime)};
+}
+
+TEST(RunDirectory, AnAmendmentKeepsTheModeAndTimesOfItsDirectories) {
+  // The amended directory and each one in it are made anew: a private run
+  // directory (700) came out world-readable (755).
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  fs::create_directories(target / "gauss" / "deep");
+  write_file(target / "gauss" / "spike_profiles.csv", "gauss\n");
+  const struct timespec old_time = {1577836800, 0};  // 2020-01-01
+  const std::array<timespec, 2> times = {old_time, old_time};
+  for (const fs::path& d : {target / "gauss" / "deep", target / "gauss", target}) {
+    fs::permissions(d, fs::perms::owner_all);
+    ASSERT_EQ(::utimensat(AT_FDCWD, d.c_str(), times.data(), 0), 0);
+  }
+  fs::permissions(target / "gauss" / "deep", fs::perms::owner_read | fs::perms::owner_exec);
+  const auto before = mode_and_mtime(target / "gauss");
+  {
+    RunDirectory run(target, RunDirectory::Amend{{"axis_profiles.csv"}});
+    write_file(run.staging() / "axis_profiles.csv", "axis\n");
+    run.publish();
+  }
+  EXPECT_EQ(mode_and_mtime(target / "gauss"), before);
+  EXPECT_EQ(mode_and_mtime(target / "gauss" / "deep").first,
+            fs::perms::owner_read | fs::perms::owner_exec);
+  EXPECT_EQ(mode_and_mtime(target).first, fs::perms::owner_all);
+  EXPECT_EQ(read_file(target / "gauss" / "spike_profiles.csv"), "gauss\n");
+  fs::permissions(target / "gauss" / "deep", fs::perms::owner_all);  // for TempDir's removal
+}
+
+TEST(RunDirectory, RefusesTheWorkingDirectoryOrOneThatHoldsIt) {
+  // The swap gives DIR a new inode: a shell working in it is left in a deleted directory.
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  fs::create_directories(target / "gauss");
+  const fs::path home = fs::current_path();
+  const auto refusal = [&](const fs::path& cwd, const fs::path& out, bool amend) {
+    fs::current_path(cwd);
+    std::string message = "accepted";
+    try {
+      if (amend) {
+        RunDirectory run(out, RunDirectory::Amend{{"axis_profiles.csv"}});
+      } else {
+        RunDirectory run(out);
+      }
+    } catch (const ConfigError& e) {
+      message = e.what();
+    }
+    fs::current_path(home);
+    return message;
+  };
+  const std::string why =
+      "' is the working directory or holds it: ehlsim replaces the directory as a whole, which "
+      "would leave this shell in a deleted one; run ehlsim from outside it";
+  EXPECT_EQ(refusal(target, ".", true), "--out '." + why);
+  EXPECT_EQ(refusal(target / "gauss", target, false), "--out '" + target.string() + why);
+  EXPECT_EQ(refusal(dir.path(), "run", true), "accepted");
+  EXPECT_EQ(refusal(target, dir / "elsewhere", false), "accepted");
 }
 
 TEST(RunDirectory, ASignalBeforeTheSwapLeavesTheTargetAsItWas) {

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <memory>
@@ -181,6 +183,34 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   return report;
 }
 
+/// The spike files of a run go into the run directory itself, or into a
+/// directory of their own: not beside another run's results (they would
+/// describe a run that is not there), nor into a directory that holds the
+/// run (the amendment would make the whole tree anew).
+void check_spike_out(const std::filesystem::path& run_dir, const std::filesystem::path& out_dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(out_dir, ec) || !fs::is_directory(run_dir, ec)) return;
+  const fs::path out = fs::canonical(out_dir, ec);
+  const fs::path run = fs::canonical(run_dir, ec);
+  if (ec || out == run) return;
+  const char* where =
+      "the run directory (the default) or a directory of their own, such as RUN/gauss";
+  const auto [end, _] = std::mismatch(out.begin(), out.end(), run.begin(), run.end());
+  if (end == out.end()) {
+    throw ConfigError(fmt::format("--out '{}' holds the run directory '{}': the spike files go "
+                                  "into {}",
+                                  out_dir.string(), run_dir.string(), where),
+                      "--out");
+  }
+  if (fs::exists(out / "run.json", ec)) {
+    throw ConfigError(fmt::format("--out '{}' is another run's directory (it holds a run.json): "
+                                  "the spike files of '{}' go into {}",
+                                  out_dir.string(), run_dir.string(), where),
+                      "--out");
+  }
+}
+
 }  // namespace
 
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
@@ -196,6 +226,7 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
     refuse_run_dir();
   // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).
+  check_spike_out(run_dir, out_dir);
   RunDirectory out(
       out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
   if (!std::filesystem::is_directory(run_dir, ec)) refuse_run_dir();

@@ -55,6 +55,9 @@ const std::set<std::string, std::less<>>& ehlsim_file_names() {
 }
 
 bool is_ehlsim_file_name(std::string name) {
+  // The lock of an ehlsim writer into a subdirectory (`ehlsim spike RUN --out
+  // RUN/gauss`), left behind when it was killed, or held while it runs.
+  if (name.starts_with('.') && name.ends_with(kLockSuffix)) return true;
   const std::string_view part = PartialFile::kSuffix;
   if (name.size() > part.size() && name.ends_with(part)) name.resize(name.size() - part.size());
   return ehlsim_file_names().contains(name);
@@ -174,19 +177,38 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
   return entries;
 }
 
+/// Gives `copy` the mode, owner and times of the directory `source`: an
+/// amended run directory (and each directory in it) is made anew, and a
+/// private one (700) came out world-readable (755), owned by whoever ran
+/// ehlsim spike.  The owner is kept where this user may set it (root).
+void copy_directory_attributes(const fs::path& source, const fs::path& copy) {
+  struct stat st {};
+  if (::stat(source.c_str(), &st) != 0) {
+    throw std::runtime_error(fmt::format("cannot read the attributes of '{}': {}", source.string(),
+                                         system_message(errno)));
+  }
+  if (::chown(copy.c_str(), st.st_uid, st.st_gid) != 0 && errno != EPERM) {
+    throw std::runtime_error(
+        fmt::format("cannot set the owner of '{}': {}", copy.string(), system_message(errno)));
+  }
+  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & 07777));
+  const std::array<timespec, 2> times = {st.st_atim, st.st_mtim};
+  ::utimensat(AT_FDCWD, copy.c_str(), times.data(), 0);  // the times are a courtesy
+}
+
 /// Recreates `entries` of `from` in the empty directory `to`: directories
-/// made anew, files hard-linked (copied where that fails), symbolic links
-/// copied; synced to disk.
+/// made anew with their attributes, files hard-linked (copied where that
+/// fails), symbolic links copied; synced to disk.
 void carry_over(const fs::path& from, const fs::path& to,
                 const std::vector<CarriedEntry>& entries) {
-  std::vector<fs::path> directories;
+  std::vector<std::pair<fs::path, fs::path>> directories;
   for (const CarriedEntry& entry : entries) {
     const fs::path source = from / entry.relative;
     const fs::path copy = to / entry.relative;
     const fs::file_status status = fs::symlink_status(source);
     if (fs::is_directory(status)) {
       fs::create_directory(copy);
-      directories.push_back(copy);
+      directories.emplace_back(source, copy);
     } else if (fs::is_symlink(status)) {
       fs::copy_symlink(source, copy);
     } else if (fs::is_regular_file(status)) {
@@ -196,7 +218,11 @@ void carry_over(const fs::path& from, const fs::path& to,
           "cannot carry '{}' over: not a file, directory or symbolic link", source.string()));
     }
   }
-  for (const fs::path& directory : directories) sync_path(directory);
+  // Deepest first: a directory's times change when entries are made in it.
+  for (auto it = directories.rbegin(); it != directories.rend(); ++it) {
+    copy_directory_attributes(it->first, it->second);
+    sync_path(it->second);
+  }
 }
 
 /// A run directory's name must leave room for the names ehlsim gives the
@@ -285,6 +311,25 @@ void check_writable(const fs::path& dir) {
                   dir.string(), std::strerror(errno)));
 }
 
+/// A run replaces its directory as a whole (a new inode): a process working
+/// in it, or below it, is left in a deleted directory (`cd w; ehlsim spike
+/// run --out .` left the shell where `ls` showed nothing and no file could be
+/// made).  This process's working directory is the shell's that started it.
+void check_not_holding_working_directory(const fs::path& resolved, const fs::path& shown) {
+  std::error_code ec;
+  const fs::path cwd = fs::current_path(ec);
+  if (ec || !fs::exists(resolved, ec)) return;
+  const fs::path target = fs::canonical(resolved, ec);
+  if (ec) return;
+  const auto [end, _] = std::mismatch(target.begin(), target.end(), cwd.begin(), cwd.end());
+  if (end != target.end()) return;
+  throw ConfigError(fmt::format("--out '{}' is the working directory or holds it: ehlsim replaces "
+                                "the directory as a whole, which would leave this shell in a "
+                                "deleted one; run ehlsim from outside it",
+                                shown.string()),
+                    "--out");
+}
+
 }  // namespace
 
 void check_replaceable_run_directory(const fs::path& dir) {
@@ -370,6 +415,7 @@ RunDirectory::RunDirectory(const fs::path& target)
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);
+  check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }
@@ -388,6 +434,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
     throw ConfigError(fmt::format("--out '{}' exists and is not a directory", target_.string()));
   }
   if (fs::exists(status)) check_writable(target_);
+  check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }
@@ -407,6 +454,7 @@ void RunDirectory::publish(bool with_checkpoint) {
     // it only against other ehlsim processes).
     carried_ = entries_below(resolved_, replaced_);
     carry_over(resolved_, staging_, carried_);
+    if (fs::exists(resolved_)) copy_directory_attributes(resolved_, staging_);
   }
   sync_path(staging_);
   stop_here_for_tests("publish");
