@@ -402,6 +402,15 @@ void check_study_options(const StudyOptions& options) {
                                     echo_input(assignment), echo_input(key), *why),
                         key);
     }
+    // The figures follow every case to lift-off: with time.T_end = 0.01 every
+    // case ran one step and the study exited 0 without figures 1 to 4.
+    if (!options.no_plots && (key == "time" || key == "time.T_end")) {
+      throw ConfigError(fmt::format("--set '{}': the figures follow every impact to lift-off; "
+                                    "a study that stops its cases at time.T_end makes no "
+                                    "figures: add --no-plots",
+                                    echo_input(assignment)),
+                        key);
+    }
   }
   if (options.no_plots) return;
   std::error_code ec;
@@ -582,6 +591,10 @@ int run_study(const StudyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   StudyPlan plan = plan_study(options);
   const fs::path out = options.out_dir;
+  if (std::error_code ec; (void)fs::status(out, ec), ec == std::errc::too_many_symbolic_link_levels)
+    throw ConfigError(
+        fmt::format("--out '{}': too many levels of symbolic links (a loop?)", out.string()),
+        "--out");
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
   if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {

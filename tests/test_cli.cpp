@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sched.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -403,6 +404,21 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "cannot read '" + empty +
                        "/run.json': not a complete ehlsim run directory "
                        "(run.json is written last, when the run has finished)");
+  // A run.json that is no regular file: a FIFO (opening it waited for ever
+  // for a writer) and a directory (the parser's error named no file).
+  for (const char* kind : {"fifo", "directory"}) {
+    const fs::path odd = dir / kind;
+    fs::create_directories(odd);
+    if (std::string(kind) == "fifo") {
+      ASSERT_EQ(::mkfifo((odd / "run.json").c_str(), 0644), 0);
+    } else {
+      fs::create_directory(odd / "run.json");
+    }
+    expect_bad_input(ehlsim("spike --quiet " + quote(odd.string())),
+                     "cannot read '" + (odd / "run.json").string() +
+                         "': not a complete ehlsim run directory (run.json is written last, when "
+                         "the run has finished)");
+  }
   // A run.json without fields.nc: the NetCDF error, on one line.
   write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
   const Result r = ehlsim("spike --quiet " + quote(empty));
@@ -538,6 +554,14 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
       ehlsim("study --grid 33 --set output.snapshot_every=1 --out " + quote(out.string())),
       "--set 'output.snapshot_every=1': the study sets output.snapshot_every itself in every case "
       "(the snapshots of the paper's figures); --set applies the other keys to every case");
+  expect_bad_input(ehlsim("study --grid 33 --set time.T_end=0.01 --out " + quote(out.string())),
+                   "--set 'time.T_end=0.01': the figures follow every impact to lift-off; a "
+                   "study that stops its cases at time.T_end makes no figures: add --no-plots");
+  fs::create_directory_symlink("loopB", dir / "loopA");
+  fs::create_directory_symlink("loopA", dir / "loopB");
+  const std::string loop = (dir / "loopA").string();
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(loop)),
+                   "--out '" + loop + "': too many levels of symbolic links (a loop?)");
   expect_bad_input(
       ehlsim("study --grid 33 --python /nonexistent/python3 --out " + quote(out.string())),
       "--python '/nonexistent/python3': No such file or directory (give a Python 3 "

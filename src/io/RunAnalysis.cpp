@@ -24,8 +24,13 @@
 namespace ehlsim {
 
 nlohmann::json read_run_json(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) {
+  // Only a regular file: opening a FIFO waits for a writer that never comes,
+  // and a directory failed in the parser with no path named.
+  std::error_code ec;
+  const bool regular = std::filesystem::is_regular_file(path, ec);
+  std::ifstream in;
+  if (regular) in.open(path);
+  if (!regular || !in) {
     throw ConfigError(
         fmt::format("cannot read '{}': not a complete ehlsim run directory (run.json "
                     "is written last, when the run has finished)",
