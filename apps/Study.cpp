@@ -402,15 +402,6 @@ void check_study_options(const StudyOptions& options) {
                                     echo_input(assignment), echo_input(key), *why),
                         key);
     }
-    // The figures follow every case to lift-off: with time.T_end = 0.01 every
-    // case ran one step and the study exited 0 without figures 1 to 4.
-    if (!options.no_plots && (key == "time" || key == "time.T_end")) {
-      throw ConfigError(fmt::format("--set '{}': the figures follow every impact to lift-off; "
-                                    "a study that stops its cases at time.T_end makes no "
-                                    "figures: add --no-plots",
-                                    echo_input(assignment)),
-                        key);
-    }
   }
   if (options.no_plots) return;
   std::error_code ec;
@@ -431,6 +422,9 @@ void check_study_options(const StudyOptions& options) {
 /// staging directory beside `out`/figures and puts it in place when the
 /// script succeeds and no signal came: figures/ holds the earlier complete
 /// set or the new one, never a half-drawn mix.  The script's exit code.
+/// What the figure script writes last into its directory.
+constexpr std::string_view kFiguresSummary = "summary.json";
+
 int draw_figures(const std::string& python, const fs::path& script, const fs::path& out,
                  const fs::path& log) {
   const fs::path figures = out / "figures";
@@ -447,6 +441,14 @@ int draw_figures(const std::string& python, const fs::path& script, const fs::pa
     fs::create_directory(staging);
     const pid_t pid = spawn(python, {python, script.string(), out.string(), staging.string()}, log);
     code = wait_forwarding(pid);
+    // The script's last act is summary.json: a script that exits 0 without
+    // it drew nothing, and must not replace the earlier figures (--python
+    // /bin/true left figures/ empty, with exit 0).
+    if (code == kExitOk && !fs::is_regular_file(staging / kFiguresSummary, ec)) {
+      std::ofstream(log, std::ios::app)
+          << fmt::format("the figure script exited 0 without writing {}\n", kFiguresSummary);
+      code = cli::kExitFailure;
+    }
     if (code == kExitOk && InterruptGuard::received() == 0) replace_directory(staging, figures);
   } catch (const std::runtime_error& e) {
     std::ofstream(log, std::ios::app) << e.what() << '\n';  // reported like a failed script

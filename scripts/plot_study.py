@@ -115,7 +115,7 @@ def pressurized_times(case):
 def fig1_fig2(case, out):
     T = snapshot_at_or_after(case, COMPARISON_T)
     if T is None:
-        print(f"figures 1-2: no snapshot of M = {case['M']} at T >= {COMPARISON_T}")
+        MISSING.append(f"figures 1-2: no snapshot of M = {case['M']} at T >= {COMPARISON_T}")
         return {}
     R, P_R = case["radial"][T]
     X, P_X = case["axis"][T]
@@ -180,7 +180,7 @@ def fig3_fig4(case, out):
     live = pressurized_times(case)
     start = snapshot_at_or_after(case, FIRST_PROFILE_T)
     if start is None or not live:
-        print("figures 3-4: no snapshots of M = 100 after T = 3.223")
+        MISSING.append(f"figures 3-4: no snapshots of M = {case['M']} after T = {FIRST_PROFILE_T}")
         return {}
     # The paper's spacing in time, 20 of its steps; on a coarser grid that is
     # fewer of ours: the snapshot nearest to each multiple of the interval.
@@ -371,6 +371,24 @@ def summary(cases, dry):
     return out
 
 
+# The figures a finished case could not give (its run ended before their
+# times, e.g. with time.T_end): the script draws the others, then fails.
+MISSING = []
+
+
+def strict_json(value):
+    """`value` with every NaN and infinity as None (null): bare NaN is no JSON."""
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
 def main():
     if len(sys.argv) not in (2, 3):
         sys.exit("usage: /usr/bin/python3 scripts/plot_study.py STUDY_DIR [FIGURES_DIR]")
@@ -393,9 +411,12 @@ def main():
     histories(cases, dry, out)
     result.update(similarity(by_M, study, out))
     result.update(summary(cases, dry))
+    result = strict_json(result)
     with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(result, f, indent=2, default=float)
-    print(json.dumps(result, indent=2, default=float))
+        json.dump(result, f, indent=2, allow_nan=False)
+    print(json.dumps(result, indent=2, allow_nan=False))
+    if MISSING:
+        sys.exit("; ".join(MISSING))
 
 
 if __name__ == "__main__":

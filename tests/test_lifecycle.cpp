@@ -916,13 +916,15 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
   std::ofstream(script) << "if [ -e " << quote((work / "slow").string()) << " ]; then\n"
                         << "  echo new > \"$2/fig1.png\"; exec sleep 60\n"
                         << "fi\n"
-                        << "echo earlier > \"$2/fig1.png\"; echo earlier > \"$2/fig2.png\"\n";
+                        << "echo earlier > \"$2/fig1.png\"; echo earlier > \"$2/fig2.png\"\n"
+                        << "echo '{}' > \"$2/summary.json\"\n";
   std::vector<std::string> args = tiny_study(study);
   args.erase(std::find(args.begin(), args.end(), "--no-plots"));
   args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
   const Child earlier = start(args, work / "earlier");
   ASSERT_EQ(exit_code_of(earlier), 0) << read_file(earlier.out) << read_file(earlier.err);
-  ASSERT_EQ(names_in(study / "figures"), (std::set<std::string>{"fig1.png", "fig2.png"}));
+  ASSERT_EQ(names_in(study / "figures"),
+            (std::set<std::string>{"fig1.png", "fig2.png", "summary.json"}));
 
   std::ofstream(work / "slow") << "";
   const Child c = start(args, work / "again");
@@ -938,6 +940,19 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
   EXPECT_EQ(names_in(study),
             (std::set<std::string>{"M10", "M100", "M20", "M50", "dry.csv", "figures", "logs",
                                    "rolling_M100", "rolling_M20"}));  // no staging, no summary
+
+  // A script that exits 0 without its summary.json drew nothing: the study
+  // fails, and the earlier figures stay (`--python /bin/true` left figures/ empty, exit 0).
+  std::ofstream(script, std::ios::trunc) << "echo half > \"$2/fig1.png\"\n";
+  const Result empty = result_of(start(args, work / "empty"));
+  EXPECT_EQ(empty.exit_code, 1) << empty.out << empty.err;
+  EXPECT_NE(empty.out.find("figure script failed (exit 1): the figure script exited 0 without "
+                           "writing summary.json"),
+            std::string::npos)
+      << empty.out;
+  EXPECT_EQ(read_file(study / "figures" / "fig1.png"), "earlier\n");
+  EXPECT_EQ(names_in(study / "figures"),
+            (std::set<std::string>{"fig1.png", "fig2.png", "summary.json"}));
 }
 
 // ----------------------------------------------------------- ehlsim spike, publishing
