@@ -223,6 +223,21 @@ std::string last_line(const fs::path& path) {
   return last;
 }
 
+/// Why a child ended with `exit_code`, for the study's one line: its log's
+/// last line, with control characters shown as '?' (a script's escape
+/// sequences cleared the terminal), or how it ended when the log says nothing.
+std::string failure_reason(const fs::path& log, int exit_code) {
+  std::string reason = last_line(log);
+  constexpr unsigned char kFirstPrintable = 0x20, kDelete = 0x7f;
+  for (char& c : reason) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < kFirstPrintable || byte == kDelete) c = '?';
+  }
+  if (!reason.empty()) return reason;
+  if (exit_code > kExitSignalBase) return "killed by " + signal_name(exit_code - kExitSignalBase);
+  return "its log " + log.string() + " says nothing";
+}
+
 /// Passes the signal the study received on to its running children, once each.
 void forward_signal(std::map<pid_t, Case*>& running) {
   const int signal = InterruptGuard::received();
@@ -287,6 +302,7 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       std::fflush(stdout);
     }
     if (running.empty()) break;  // interrupted before the next start
+    forward_signal(running);     // one that came while a case was starting
     int status = 0;
     const pid_t pid = waitpid(-1, &status, 0);
     if (pid < 0 && errno == EINTR) {
@@ -307,9 +323,12 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       c.warnings = case_warnings(c);
       for (const std::string& warning : c.warnings)
         print_out("  warning  {}: {}\n", case_label(c), warning);
+    } else if (c.signalled && c.exit_code > kExitSignalBase) {
+      print_out("  stopped  {} after {:.1f} s by {}\n", case_label(c), c.wall_seconds,
+                signal_name(c.exit_code - kExitSignalBase));
     } else {
       print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
-                c.exit_code, last_line(c.log));
+                c.exit_code, failure_reason(c.log, c.exit_code));
     }
     std::fflush(stdout);
   }
@@ -331,8 +350,11 @@ void write_dry_reference(const fs::path& path, const ImpactConfig& config) {
 /// exit code.  `after_cases`: what the study was doing after its cases had run.
 int report_interruption(const std::vector<Case>& cases, const std::string& after_cases = "") {
   std::vector<std::string> stopped;
+  bool rolling_stopped = false;
   for (const Case& c : cases) {
-    if (c.signalled) stopped.push_back(c.name);
+    if (!c.signalled) continue;
+    stopped.push_back(c.name);
+    rolling_stopped = rolling_stopped || c.command == "rolling";
   }
   const int signal = InterruptGuard::received();
   std::fflush(stdout);
@@ -348,7 +370,10 @@ int report_interruption(const std::vector<Case>& cases, const std::string& after
       signal_name(signal).c_str(),
       stopped.empty()
           ? ""
-          : fmt::format(" {} (their logs say how to resume each)", fmt::join(stopped, ", "))
+          : fmt::format(" {} ({})", fmt::join(stopped, ", "),
+                        rolling_stopped ? "a stopped impact's log says how to resume it; a "
+                                          "rolling run is run again from its start"
+                                        : "their logs say how to resume each")
                 .c_str());
   return exit_code_for_signal(signal);
 }
@@ -544,7 +569,7 @@ std::variant<nlohmann::json, int> figures_entry(const StudyOptions& options, con
     return report_interruption(cases, "during the figure script (figures/ was not changed)");
   }
   if (code != cli::kExitOk) {
-    print_out("  figure script failed (exit {}): {}\n", code, last_line(log));
+    print_out("  figure script failed (exit {}): {}\n", code, failure_reason(log, code));
   } else {
     print_out("  figures in {}\n", (out / "figures").string());
   }

@@ -815,8 +815,10 @@ TEST(Lifecycle, StudyPassesSigtermToItsCasesAndWritesNoSummary) {
     EXPECT_FALSE(fs::exists(fs::path("/proc") / (*it)[1].str()))
         << "pid " << (*it)[1] << " runs on";
   }
-  EXPECT_NE(out.find("FAILED   M = 100"), std::string::npos) << out;
-  EXPECT_NE(out.find("(exit 143): ehlsim: interrupted by SIGTERM"), std::string::npos) << out;
+  EXPECT_NE(out.find("stopped  M = 100"), std::string::npos) << out;
+  EXPECT_NE(out.find(" s by SIGTERM\n"), std::string::npos) << out;
+  EXPECT_EQ(out.find("FAILED"), std::string::npos) << out;
+  EXPECT_NE(read_file(study / "logs" / "M100.log").find("resume with: "), std::string::npos);
   EXPECT_TRUE(fs::exists(study / "M100.checkpoint.nc"));
   EXPECT_TRUE(fs::exists(study / "M50.checkpoint.nc"));
 }
