@@ -957,6 +957,28 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
             (std::set<std::string>{"fig1.png", "fig2.png", "summary.json"}));
 }
 
+TEST(Lifecycle, AFigureScriptsFailureIsReportedOnOneCleanLine) {
+  TempDir work;
+  const fs::path study = work / "study";
+  const fs::path script = work / "figures.sh";
+  std::vector<std::string> args = tiny_study(study);
+  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
+  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  // Escape sequences (clear the screen, red) are shown, not obeyed.
+  std::ofstream(script) << "printf 'ok\\n\\033[2J\\033[31mbad\\n'; exit 3\n";
+  const Result escaped = result_of(start(args, work / "escaped"));
+  EXPECT_EQ(escaped.exit_code, 1);
+  EXPECT_NE(escaped.out.find("  figure script failed (exit 3): ?[2J?[31mbad\n"), std::string::npos)
+      << escaped.out;
+  // A script killed by a signal, with nothing in its log, says how it ended.
+  std::ofstream(script, std::ios::trunc) << "kill -SEGV $$\n";
+  const Result killed = result_of(start(args, work / "killed"));
+  EXPECT_EQ(killed.exit_code, 1);
+  EXPECT_NE(killed.out.find("  figure script failed (exit 139): killed by SIGSEGV\n"),
+            std::string::npos)
+      << killed.out;
+}
+
 // ----------------------------------------------------------- ehlsim spike, publishing
 
 const std::vector<std::string> kSpikeFiles = {"spike_snapshots.csv", "spike_profiles.csv",
