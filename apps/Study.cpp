@@ -521,6 +521,14 @@ StudyPlan plan_study(const StudyOptions& options) {
   check_study_options(options);
   const fs::path out = options.out_dir;
   StudyPlan plan{study_cases(options, out), {}, {}};
+  // A study directory is no run directory: its cases' runs would stand
+  // beside another run's results.
+  if (std::error_code ec; fs::exists(out / RunOutput::kRunFile, ec)) {
+    throw ConfigError(fmt::format("--out '{}' holds a run.json: it is a run directory, not a "
+                                  "study's; choose another --out",
+                                  out.string()),
+                      "--out");
+  }
   for (const Case& c : plan.cases) {
     plan.reference = load_config(std::nullopt, c.overrides);  // bad input: ConfigError
     check_case_memory(c, plan.reference);
@@ -528,6 +536,15 @@ StudyPlan plan_study(const StudyOptions& options) {
   for (Case& c : rolling_cases(options, out)) {
     check_case_memory(c, load_rolling_config(std::nullopt, c.overrides));
     plan.cases.push_back(std::move(c));
+  }
+  // Each case replaces its directory as a run does: one that holds files
+  // ehlsim did not write is refused now, not when the case starts.
+  for (const Case& c : plan.cases) {
+    try {
+      check_replaceable_run_directory(c.dir);
+    } catch (const ConfigError& e) {
+      throw ConfigError(fmt::format("case {}: {}", c.name, e.what()), e.key());
+    }
   }
   plan.script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
   if (std::error_code ec; !options.no_plots && !fs::is_regular_file(plan.script, ec)) {

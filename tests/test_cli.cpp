@@ -554,6 +554,22 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
       ehlsim("study --grid 33 --set output.snapshot_every=1 --out " + quote(out.string())),
       "--set 'output.snapshot_every=1': the study sets output.snapshot_every itself in every case "
       "(the snapshots of the paper's figures); --set applies the other keys to every case");
+  // A case directory with a file of the user's is refused before any case runs.
+  fs::create_directories(out / "M100");
+  write_file(out / "M100" / "notes.txt", "mine");
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(out.string())),
+                   "case M100: --out '" + (out / "M100").string() +
+                       "' is not empty and holds no ehlsim run.json: ehlsim writes only into a "
+                       "new or empty directory or over an earlier ehlsim run; choose another "
+                       "--out, or move the files yourself");
+  EXPECT_FALSE(fs::exists(out / "logs"));
+  fs::remove_all(out);
+  // A run directory is no study directory.
+  ASSERT_EQ(tiny_run(dir / "run", "--set time.T_end=0.1").exit_code, 0);
+  expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote((dir / "run").string())),
+                   "--out '" + (dir / "run").string() +
+                       "' holds a run.json: it is a run directory, not a study's; choose another "
+                       "--out");
   fs::create_directory_symlink("loopB", dir / "loopA");
   fs::create_directory_symlink("loopA", dir / "loopB");
   const std::string loop = (dir / "loopA").string();
