@@ -479,6 +479,24 @@ TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
                    prefix +
                        "has time nan (the times of a run are finite and increasing; the one "
                        "before is -inf)");
+  // A finite pressure no run reaches: the filter's sums overflowed to -nan, with exit 0.
+  fs::copy_file(good, fields, fs::copy_options::overwrite_existing);
+  ehlsim::testing::rewrite_value(fields, "P", {0, 16, 16}, 1e308);
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string())),
+                   prefix + "(T = 1.03125) has the pressure 1e+308 (no run's is above 1e+100)");
+  // A start in run.json that gives no dry contact (Delta0 = 1e308 failed with exit 1).
+  fs::copy_file(good, fields, fs::copy_options::overwrite_existing);
+  nlohmann::json edited = nlohmann::json::parse(read_file(run / "run.json"));
+  edited["parameters"]["time"]["Delta0"] = 1e308;
+  write_file(run / "run.json", edited.dump());
+  const Result far = ehlsim("spike --quiet " + quote(run.string()));
+  EXPECT_EQ(far.exit_code, 2) << far.err;
+  EXPECT_EQ(far.err.rfind("ehlsim: error: cannot use '" + (run / "run.json").string() +
+                              "': parameters.time Delta0 = 1e+308 and V0 = 1 give no dry "
+                              "contact to compare with (",
+                          0),
+            0u)
+      << far.err;
 }
 
 TEST(Cli, SpikeFilesGoIntoTheRunOrADirectoryOfTheirOwn) {

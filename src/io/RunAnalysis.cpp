@@ -10,6 +10,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <span>
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "config/Parameters.hpp"
@@ -119,6 +120,12 @@ std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   }
 }
 
+/// The largest pressure a snapshot may hold: far above any run's (the pocket
+/// collapse peaks at 42 on 1025^2, docs/performance.md), far below where the
+/// filter's sums overflow (P = 1e308 everywhere gave -nan in
+/// spike_profiles.csv, with exit 0).
+constexpr double kMaxSnapshotPressure = 1e100;
+
 /// Snapshot `k` of the fields file `path` (pressure P at time T, after
 /// `previous`) as a run writes one: a time later than the one before, and
 /// pressures that are finite and >= 0.  Throws ConfigError naming the file: a
@@ -136,6 +143,37 @@ void check_snapshot(const std::filesystem::path& path, std::size_t k, double T, 
         "cannot use '{}': snapshot {} (T = {:g}) has the pressure {} at point ({}, {}) (a run "
         "writes finite pressures >= 0)",
         path.string(), k, T, unsound->value, unsound->i, unsound->j));
+  }
+  const std::span<const double> values = P.span();
+  if (const double peak = *std::max_element(values.begin(), values.end());
+      peak > kMaxSnapshotPressure) {
+    throw ConfigError(
+        fmt::format("cannot use '{}': snapshot {} (T = {:g}) has the pressure {:g} (no run's is "
+                    "above {:g})",
+                    path.string(), k, T, peak, kMaxSnapshotPressure));
+  }
+}
+
+/// Snapshot `k`'s pressure; ConfigError (bad input) when the file's data
+/// cannot be read (bytes of a fields.nc overwritten: "NetCDF: HDF error").
+Field read_pressure(const FieldReader& fields, std::size_t k) {
+  try {
+    return fields.pressure(k);
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(e.what());
+  }
+}
+
+/// The dry contact of a run's start; ConfigError when run.json's values
+/// give none (Delta0 = 1e308: "the implicit step did not converge", exit 1).
+DryContactRadius dry_contact_of(double Delta0, double V0, const std::filesystem::path& run_file) {
+  try {
+    return DryContactRadius(Delta0, V0);
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(
+        fmt::format("cannot use '{}': parameters.time Delta0 = {} and V0 = {} give "
+                    "no dry contact to compare with ({})",
+                    run_file.string(), Delta0, V0, e.what()));
   }
 }
 
@@ -156,7 +194,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
         fmt::format("cannot use '{}': parameters.time Delta0 = {} and V0 = {} are "
                     "no run's (Delta0 > 0, V0 in [{:g}, {:g}])",
                     run_file.string(), Delta0, V0, kMinV0, kMaxV0));
-  const DryContactRadius dry(Delta0, V0);
+  const DryContactRadius dry = dry_contact_of(Delta0, V0, run_file);
 
   const std::unique_ptr<FieldReader> fields = open_fields(run_dir / RunOutput::kFieldsFile);
 
@@ -172,7 +210,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
     const double T = fields->times()[k];
     // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
-    const Field P = fields->pressure(k);
+    const Field P = read_pressure(*fields, k);
     check_snapshot(run_dir / RunOutput::kFieldsFile, k, T, previous, P);
     previous = T;
     const SpikeAnalysis analysis = analyze_spike(order, P.span(), settings);
