@@ -248,16 +248,30 @@ void forward_signal(std::map<pid_t, Case*>& running) {
   }
 }
 
-/// Waits for `pid`, passing a signal the study receives on to it.
+/// How long a child that got the study's signal may take to end before it is
+/// killed: a figure script that ignored SIGTERM kept the study waiting for as
+/// long as it ran.
+constexpr auto kSignalGrace = std::chrono::seconds(5);
+constexpr auto kSignalPoll = std::chrono::milliseconds(50);
+
+/// Waits for `pid`, passing a signal the study receives on to it, and
+/// killing it kSignalGrace after that if it has not ended.
 int wait_forwarding(pid_t pid) {
   int status = 0;
-  bool signalled = false;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
-    if (!signalled && InterruptGuard::received() != 0) kill(pid, InterruptGuard::received());
-    signalled = InterruptGuard::received() != 0;
+  std::optional<std::chrono::steady_clock::time_point> signalled_at;
+  for (;;) {
+    const pid_t ended = waitpid(pid, &status, signalled_at ? WNOHANG : 0);
+    if (ended == pid) return exit_code_of(status);
+    if (ended < 0 && errno != EINTR)
+      throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
+    if (!signalled_at && InterruptGuard::received() != 0) {
+      kill(pid, InterruptGuard::received());
+      signalled_at = std::chrono::steady_clock::now();
+    } else if (signalled_at && std::chrono::steady_clock::now() - *signalled_at > kSignalGrace) {
+      kill(pid, SIGKILL);
+    }
+    if (signalled_at) std::this_thread::sleep_for(kSignalPoll);
   }
-  return exit_code_of(status);
 }
 
 /// The warnings in the run.json of a finished case (none if it cannot be read).

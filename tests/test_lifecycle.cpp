@@ -957,6 +957,29 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
             (std::set<std::string>{"fig1.png", "fig2.png", "summary.json"}));
 }
 
+TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
+  // It kept the study waiting for as long as it ran.
+  TempDir work;
+  const fs::path study = work / "study";
+  const fs::path script = work / "figures.sh";
+  std::ofstream(script) << "trap '' TERM INT HUP\n"
+                        << "echo new > \"$2/fig1.png\"\n"
+                        << "while :; do sleep 1; done\n";
+  std::vector<std::string> args = tiny_study(study);
+  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
+  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  const Child c = start(args, work / "study");
+  ASSERT_TRUE(wait_for_path(study / (".figures.part-" + std::to_string(c.pid)) / "fig1.png"));
+  const auto signalled = std::chrono::steady_clock::now();
+  kill(c.pid, SIGTERM);
+  const Result r = result_of(c);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  EXPECT_LT(seconds, 30.0);  // the grace of 5 s, then SIGKILL
+  EXPECT_FALSE(fs::exists(study / "figures"));
+}
+
 TEST(Lifecycle, AFigureScriptsFailureIsReportedOnOneCleanLine) {
   TempDir work;
   const fs::path study = work / "study";
