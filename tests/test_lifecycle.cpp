@@ -829,6 +829,15 @@ std::vector<std::string> tiny_study(const fs::path& out) {
           "--set", "time.T_end=0.2", "--out", out.string()};
 }
 
+/// tiny_study with figures drawn by the shell script `script` (a stand-in
+/// for the figure script: no matplotlib needed).
+std::vector<std::string> tiny_study_with_script(const fs::path& out, const fs::path& script) {
+  std::vector<std::string> args = tiny_study(out);
+  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
+  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  return args;
+}
+
 /// Runs `args` with stdout a pipe that nobody reads any more (`ehlsim ... |
 /// head -1` once head has ended) and stderr to `err`; its exit code.
 int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs::path& err) {
@@ -920,9 +929,7 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
                         << "fi\n"
                         << "echo earlier > \"$2/fig1.png\"; echo earlier > \"$2/fig2.png\"\n"
                         << "echo '{}' > \"$2/summary.json\"\n";
-  std::vector<std::string> args = tiny_study(study);
-  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
-  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  const std::vector<std::string> args = tiny_study_with_script(study, script);
   const Child earlier = start(args, work / "earlier");
   ASSERT_EQ(exit_code_of(earlier), 0) << read_file(earlier.out) << read_file(earlier.err);
   ASSERT_EQ(names_in(study / "figures"),
@@ -965,9 +972,7 @@ TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   std::ofstream(script) << "trap '' TERM INT HUP\n"
                         << "echo new > \"$2/fig1.png\"\n"
                         << "while :; do sleep 1; done\n";
-  std::vector<std::string> args = tiny_study(study);
-  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
-  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  const std::vector<std::string> args = tiny_study_with_script(study, script);
   const Child c = start(args, work / "study");
   ASSERT_TRUE(wait_for_path(study / (".figures.part-" + std::to_string(c.pid)) / "fig1.png"));
   const auto signalled = std::chrono::steady_clock::now();
@@ -984,9 +989,7 @@ TEST(Lifecycle, AFigureScriptsFailureIsReportedOnOneCleanLine) {
   TempDir work;
   const fs::path study = work / "study";
   const fs::path script = work / "figures.sh";
-  std::vector<std::string> args = tiny_study(study);
-  args.erase(std::find(args.begin(), args.end(), "--no-plots"));
-  args.insert(args.end(), {"--python", "/bin/sh", "--plot-script", script.string()});
+  const std::vector<std::string> args = tiny_study_with_script(study, script);
   // Escape sequences (clear the screen, red) are shown, not obeyed.
   std::ofstream(script) << "printf 'ok\\n\\033[2J\\033[31mbad\\n'; exit 3\n";
   const Result escaped = result_of(start(args, work / "escaped"));
