@@ -457,13 +457,14 @@ void check_study_options(const StudyOptions& options) {
   }
 }
 
-/// Runs the figure script (`python script STUDY_DIR FIGURES_DIR`) into a
-/// staging directory beside `out`/figures and puts it in place when the
-/// script succeeds and no signal came: figures/ holds the earlier complete
-/// set or the new one, never a half-drawn mix.  The script's exit code.
 /// What the figure script writes last into its directory.
 constexpr std::string_view kFiguresSummary = "summary.json";
 
+/// Runs the figure script (`python script STUDY_DIR FIGURES_DIR`) into a
+/// staging directory beside `out`/figures and puts it in place when the
+/// script succeeds (having written kFiguresSummary) and no signal came:
+/// figures/ holds the earlier complete set or the new one, never a
+/// half-drawn mix.  The script's exit code.
 int draw_figures(const std::string& python, const fs::path& script, const fs::path& out,
                  const fs::path& log) {
   const fs::path figures = out / "figures";
