@@ -394,7 +394,10 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   const std::string missing = (dir / "missing").string();
   expect_bad_input(ehlsim("spike --quiet " + quote(missing)),
                    "run directory '" + missing + "' does not exist or is not a directory");
-  // A file as RUN_DIR (it was named as the --out it defaults to).
+  // An empty RUN_DIR (an unset shell variable) and a file as RUN_DIR (both
+  // were named as the --out it defaults to).
+  expect_bad_input(ehlsim("spike --quiet ''"),
+                   "run directory '' does not exist or is not a directory");
   const std::string file = write_file(dir / "run.json", "{}").string();
   expect_bad_input(ehlsim("spike --quiet " + quote(file)),
                    "run directory '" + file + "' does not exist or is not a directory");

@@ -263,9 +263,11 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
     throw ConfigError(
         fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
   };
-  // A file given as RUN_DIR is named as such, not as the --out it defaults to.
+  // A file given as RUN_DIR, or none (`ehlsim spike "$UNSET"`), is named as
+  // such, not as the --out it defaults to.
   std::error_code ec;
-  if (std::filesystem::exists(run_dir, ec) && !std::filesystem::is_directory(run_dir, ec))
+  if (run_dir.empty() ||
+      (std::filesystem::exists(run_dir, ec) && !std::filesystem::is_directory(run_dir, ec)))
     refuse_run_dir();
   // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).
