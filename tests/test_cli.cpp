@@ -704,6 +704,16 @@ TEST(Cli, TinyStudy) {
   nlohmann::json figures;
   EXPECT_NO_THROW(figures = nlohmann::json::parse(read_file(out / "figures" / "summary.json")));
   EXPECT_TRUE(figures.contains("cases")) << figures;
+  // Cases stopped by time.T_end have none of the snapshots of figures 1-4: the
+  // script draws the rest and fails (the study exited 0 without them), and
+  // the earlier figures stay.
+  const Result short_runs =
+      ehlsim("study --grid 33 --rolling-grid 65 --set time.T_end=0.5 --out " + quote(out.string()));
+  EXPECT_EQ(short_runs.exit_code, 1) << short_runs.out << short_runs.err;
+  EXPECT_NE(short_runs.out.find("figure script failed (exit 1): figures 1-2: no snapshot of M = "),
+            std::string::npos)
+      << short_runs.out;
+  EXPECT_TRUE(fs::exists(out / "figures" / "fig1.png"));
 }
 
 TEST(Cli, RunEchoesTheParameters) {
