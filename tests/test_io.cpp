@@ -1512,7 +1512,17 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   fs::create_directories(dir / "run" / "gauss");
   write_file(dir / "run" / "gauss" / "spike_profiles.csv", "x");  // ehlsim spike --out run/gauss
   EXPECT_EQ(message(dir / "run"), "accepted");
-  write_file(dir / "run" / ".gauss.lock", "pid 1");  // the lock of a spike --out run/gauss
+  write_file(dir / "run" / ".gauss.lock", "pid 1");  // left by a killed spike --out run/gauss
+  EXPECT_EQ(message(dir / "run"), "accepted");
+  {
+    // ... and held by one that runs: replacing run would pull its directory away.
+    const PathLock busy(resolve_run_directory(dir / "run" / "gauss"), dir / "run" / "gauss");
+    EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
+                                        (dir / "run" / ".gauss.lock").string() +
+                                        "', the lock of an ehlsim run that writes there now: "
+                                        "wait for it to end, or choose another --out");
+  }
+  write_file(dir / "run" / ".gauss.lock", "pid 1");  // the lock's file goes with its holder
   EXPECT_EQ(message(dir / "run"), "accepted");
   write_file(dir / "run" / "rolling.png", "x");  // scripts/plot_rolling.py's figure
   EXPECT_EQ(message(dir / "run"), "accepted");

@@ -115,6 +115,25 @@ fs::path first_foreign_entry(const fs::path& dir) {
   return {};
 }
 
+/// The first lock below `dir` that an ehlsim run holds now (`ehlsim spike
+/// RUN --out RUN/gauss` while RUN would be replaced), or "".  A lock left by
+/// a killed run is free: flock(2) locks die with their process.
+fs::path first_held_lock(const fs::path& dir) {
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (!it->is_regular_file(ec) || !name.starts_with('.') || !name.ends_with(kLockSuffix))
+      continue;
+    const int fd = ::open(it->path().c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) continue;
+    const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+    ::close(fd);
+    if (held) return it->path();
+  }
+  return {};
+}
+
 std::string lock_holder_text() {
   std::array<char, kHostNameLength> host{};
   if (gethostname(host.data(), host.size() - 1) != 0) std::strcpy(host.data(), "unknown");
@@ -351,6 +370,12 @@ void check_replaceable_run_directory(const fs::path& dir) {
   if (const fs::path foreign = first_foreign_entry(dir); !foreign.empty()) {
     throw ConfigError(fmt::format("--out '{}' holds '{}', which ehlsim did not write: {}",
                                   dir.string(), foreign.string(), policy));
+  }
+  if (const fs::path busy = first_held_lock(dir); !busy.empty()) {
+    throw ConfigError(
+        fmt::format("--out '{}' holds '{}', the lock of an ehlsim run that writes "
+                    "there now: wait for it to end, or choose another --out",
+                    dir.string(), busy.string()));
   }
 }
 
