@@ -6,16 +6,12 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
-#include <array>
 #include <cerrno>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
-#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
-#include <numbers>
 #include <sstream>
 #include <system_error>
 #include <utility>

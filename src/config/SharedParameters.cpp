@@ -4,12 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdio>
-#include <limits>
-#include <numbers>
-#include <utility>
 
 #include "config/ParameterSet.hpp"
 #include "grid/NumberText.hpp"
@@ -29,7 +24,13 @@ constexpr std::string_view kCycleV = "V";
 constexpr std::string_view kCycleW = "W";
 constexpr std::string_view kFft = "fft";
 constexpr std::string_view kDirect = "direct";
-
+constexpr std::string_view kArithmetic = "arithmetic";
+constexpr std::string_view kHarmonic = "harmonic";
+constexpr std::string_view kLogarithmic = "logarithmic";
+constexpr std::string_view kLinesAlternating = "alternating";
+constexpr std::string_view kLinesX = "x";
+constexpr std::string_view kUpdatesPerSweep = "sweep";
+constexpr std::string_view kUpdatesPerColour = "colour";
 }  // namespace
 
 std::string_view viscosity_model_text(ViscosityModel model) {
@@ -46,13 +47,6 @@ std::string_view deformation_method_text(DeformationMethod method) {
 }
 
 namespace {
-constexpr std::string_view kArithmetic = "arithmetic";
-constexpr std::string_view kHarmonic = "harmonic";
-constexpr std::string_view kLogarithmic = "logarithmic";
-constexpr std::string_view kLinesAlternating = "alternating";
-constexpr std::string_view kLinesX = "x";
-constexpr std::string_view kUpdatesPerSweep = "sweep";
-constexpr std::string_view kUpdatesPerColour = "colour";
 /// solver.local_newton: a half-width w gives a dense system of up to
 /// (2w + 1)^2 unknowns per cycle; at 20 that is 1681, 23 MB and about 3e9
 /// operations for its LU factors, more than a cycle of a 1025^2 grid.
