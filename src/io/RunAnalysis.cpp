@@ -234,19 +234,16 @@ void check_spike_out(const std::filesystem::path& run_dir, const std::filesystem
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(out_dir, ec) || !fs::is_directory(run_dir, ec)) return;
-  const fs::path out = fs::canonical(out_dir, ec);
-  const fs::path run = fs::canonical(run_dir, ec);
-  if (ec || out == run) return;
+  if (fs::equivalent(out_dir, run_dir, ec)) return;
   const char* where =
       "the run directory (the default) or a directory of their own, such as RUN/gauss";
-  const auto [end, _] = std::mismatch(out.begin(), out.end(), run.begin(), run.end());
-  if (end == out.end()) {
+  if (holds_path(out_dir, run_dir)) {
     throw ConfigError(fmt::format("--out '{}' holds the run directory '{}': the spike files go "
                                   "into {}",
                                   out_dir.string(), run_dir.string(), where),
                       "--out");
   }
-  if (fs::exists(out / "run.json", ec)) {
+  if (fs::exists(out_dir / RunOutput::kRunFile, ec)) {
     throw ConfigError(fmt::format("--out '{}' is another run's directory (it holds a run.json): "
                                   "the spike files of '{}' go into {}",
                                   out_dir.string(), run_dir.string(), where),

@@ -54,10 +54,15 @@ const std::set<std::string, std::less<>>& ehlsim_file_names() {
   return names;
 }
 
+/// The name PathLock gives the lock beside a target: ".NAME.lock".
+bool is_lock_file_name(std::string_view name) {
+  return name.starts_with('.') && name.ends_with(kLockSuffix);
+}
+
 bool is_ehlsim_file_name(std::string name) {
   // The lock of an ehlsim writer into a subdirectory (`ehlsim spike RUN --out
   // RUN/gauss`), left behind when it was killed, or held while it runs.
-  if (name.starts_with('.') && name.ends_with(kLockSuffix)) return true;
+  if (is_lock_file_name(name)) return true;
   const std::string_view part = PartialFile::kSuffix;
   if (name.size() > part.size() && name.ends_with(part)) name.resize(name.size() - part.size());
   return ehlsim_file_names().contains(name);
@@ -122,9 +127,7 @@ fs::path first_held_lock(const fs::path& dir) {
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::end(it);
        it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (!it->is_regular_file(ec) || !name.starts_with('.') || !name.ends_with(kLockSuffix))
-      continue;
+    if (!it->is_regular_file(ec) || !is_lock_file_name(it->path().filename().string())) continue;
     const int fd = ::open(it->path().c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) continue;
     const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
@@ -337,11 +340,7 @@ void check_writable(const fs::path& dir) {
 void check_not_holding_working_directory(const fs::path& resolved, const fs::path& shown) {
   std::error_code ec;
   const fs::path cwd = fs::current_path(ec);
-  if (ec || !fs::exists(resolved, ec)) return;
-  const fs::path target = fs::canonical(resolved, ec);
-  if (ec) return;
-  const auto [end, _] = std::mismatch(target.begin(), target.end(), cwd.begin(), cwd.end());
-  if (end != target.end()) return;
+  if (ec || !holds_path(resolved, cwd)) return;
   throw ConfigError(fmt::format("--out '{}' is the working directory or holds it: ehlsim replaces "
                                 "the directory as a whole, which would leave this shell in a "
                                 "deleted one; run ehlsim from outside it",
@@ -350,6 +349,15 @@ void check_not_holding_working_directory(const fs::path& resolved, const fs::pat
 }
 
 }  // namespace
+
+bool holds_path(const fs::path& dir, const fs::path& inside) {
+  std::error_code ec;
+  const fs::path outer = fs::canonical(dir, ec);
+  if (ec) return false;
+  const fs::path inner = fs::canonical(inside, ec);
+  if (ec) return false;
+  return std::mismatch(outer.begin(), outer.end(), inner.begin(), inner.end()).first == outer.end();
+}
 
 void check_replaceable_run_directory(const fs::path& dir) {
   std::error_code ec;

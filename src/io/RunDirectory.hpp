@@ -129,6 +129,11 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 /// file; std::runtime_error when the parent cannot be created otherwise.
 [[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
 
+/// Whether `inside` is the directory `dir` or lies below it (both existing;
+/// symbolic links resolved).  False when either cannot be resolved.
+[[nodiscard]] bool holds_path(const std::filesystem::path& dir,
+                              const std::filesystem::path& inside);
+
 /// Throws ConfigError unless `dir` is missing, an empty directory, or an
 /// earlier ehlsim run: an ehlsim run.json and nothing but files ehlsim writes
 /// (the run's, `ehlsim spike`'s and their ".part" names, also in
