@@ -115,8 +115,7 @@ def pressurized_times(case):
 def fig1_fig2(case, out):
     T = snapshot_at_or_after(case, COMPARISON_T)
     if T is None:
-        MISSING.append(f"figures 1-2: no snapshot of M = {case['M']} at T >= {COMPARISON_T}")
-        return {}
+        return None  # the run ended before COMPARISON_T
     R, P_R = case["radial"][T]
     X, P_X = case["axis"][T]
     snaps = case["snapshots"]
@@ -180,8 +179,7 @@ def fig3_fig4(case, out):
     live = pressurized_times(case)
     start = snapshot_at_or_after(case, FIRST_PROFILE_T)
     if start is None or not live:
-        MISSING.append(f"figures 3-4: no snapshots of M = {case['M']} after T = {FIRST_PROFILE_T}")
-        return {}
+        return None  # the run ended before FIRST_PROFILE_T
     # The paper's spacing in time, 20 of its steps; on a coarser grid that is
     # fewer of ours: the snapshot nearest to each multiple of the interval.
     fig3 = []
@@ -371,11 +369,6 @@ def summary(cases, dry):
     return out
 
 
-# The figures a finished case could not give (its run ended before their
-# times, e.g. with time.T_end): the script draws the others, then fails.
-MISSING = []
-
-
 def strict_json(value):
     """`value` with every NaN and infinity as None (null): bare NaN is no JSON."""
     if isinstance(value, dict):
@@ -402,10 +395,19 @@ def main():
     by_M = {c["M"]: c for c in cases}
     dry = read_csv(os.path.join(study, "dry.csv"))
     result = {}
+    # The figures a finished case could not give (its run ended before their
+    # times, e.g. with time.T_end): the script draws the others, then fails.
+    missing = []
     if COMPARISON_CASE in by_M:
-        result["fig1"] = fig1_fig2(by_M[COMPARISON_CASE], out)
+        fig1 = fig1_fig2(by_M[COMPARISON_CASE], out)
+        if fig1 is None:
+            missing.append(f"figures 1-2: no snapshot of M = {COMPARISON_CASE} at T >= {COMPARISON_T}")
+        result["fig1"] = fig1 or {}
     if PROFILE_CASE in by_M:
-        result.update(fig3_fig4(by_M[PROFILE_CASE], out))
+        profiles = fig3_fig4(by_M[PROFILE_CASE], out)
+        if profiles is None:
+            missing.append(f"figures 3-4: no snapshots of M = {PROFILE_CASE} after T = {FIRST_PROFILE_T}")
+        result.update(profiles or {})
         fig6(by_M[PROFILE_CASE], out)
     fig5(cases, dry, out)
     histories(cases, dry, out)
@@ -415,8 +417,8 @@ def main():
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(result, f, indent=2, allow_nan=False)
     print(json.dumps(result, indent=2, allow_nan=False))
-    if MISSING:
-        sys.exit("; ".join(MISSING))
+    if missing:
+        sys.exit("; ".join(missing))
 
 
 if __name__ == "__main__":
