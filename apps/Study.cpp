@@ -651,9 +651,7 @@ int run_study(const StudyOptions& options) {
   StudyPlan plan = plan_study(options);
   const fs::path out = options.out_dir;
   if (std::error_code ec; (void)fs::status(out, ec), ec == std::errc::too_many_symbolic_link_levels)
-    throw ConfigError(
-        fmt::format("--out '{}': too many levels of symbolic links (a loop?)", out.string()),
-        "--out");
+    throw link_loop_error(out);
   // One study per directory: a second one would truncate the logs of the first.
   const PathLock lock(resolve_run_directory(out), out);
   if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {

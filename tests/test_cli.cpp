@@ -596,6 +596,13 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   const std::string loop = (dir / "loopA").string();
   expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(loop)),
                    "--out '" + loop + "': too many levels of symbolic links (a loop?)");
+  // A loop in a parent of --out too, for every mode that writes a directory.
+  const std::string below = loop + "/run";
+  for (const std::string& command :
+       std::vector<std::string>{"study --grid 33 --no-plots", "impact --quiet", "rolling --quiet",
+                                "spike " + quote(out.string())})
+    expect_bad_input(ehlsim(command + " --out " + quote(below)),
+                     "--out '" + below + "': too many levels of symbolic links (a loop?)");
   expect_bad_input(
       ehlsim("study --grid 33 --python /nonexistent/python3 --out " + quote(out.string())),
       "--python '/nonexistent/python3': No such file or directory (give a Python 3 "

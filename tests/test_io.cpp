@@ -1576,6 +1576,15 @@ TEST(RunDirectory, ARunIntoASymbolicLinkReplacesTheDirectoryItPointsTo) {
     EXPECT_EQ(std::string(e.what()), "--out '" + (dir / "loop-a").string() +
                                          "': too many levels of symbolic links (a loop?)");
   }
+  // So is a loop in a parent of --out, which the run's parents cannot be made in.
+  const fs::path below_loop = dir / "loop-a" / "run";
+  try {
+    RunDirectory run(below_loop);
+    FAIL() << "a run below a symbolic link loop was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "--out '" + below_loop.string() + "': too many levels of symbolic links (a loop?)");
+  }
 }
 
 /// The inode of `path` (a hard link shares it).

@@ -86,9 +86,7 @@ fs::path follow_final_link(const fs::path& target) {
     std::error_code ec;
     if (!fs::is_symlink(fs::symlink_status(path, ec))) return path;
     if (hops == kMaxLinkHops) {
-      throw ConfigError(
-          fmt::format("--out '{}': too many levels of symbolic links (a loop?)", target.string()),
-          "--out");
+      throw link_loop_error(target);
     }
     const fs::path link = fs::read_symlink(path);
     path = without_trailing_separator(
@@ -270,6 +268,7 @@ void create_parent_directories(const fs::path& absolute, const fs::path& shown) 
   std::error_code ec;
   fs::create_directories(absolute.parent_path(), ec);
   if (!ec) return;
+  if (ec == std::errc::too_many_symbolic_link_levels) throw link_loop_error(shown);
   if (ec == std::errc::not_a_directory || ec == std::errc::file_exists) {
     fs::path file = absolute.parent_path();  // the first parent that exists
     std::error_code exists;
@@ -427,6 +426,12 @@ PathLock::~PathLock() {
   if (fd_ < 0) return;
   unlink(path_.c_str());  // while still locked: see the stat check above
   close(fd_);
+}
+
+ConfigError link_loop_error(const fs::path& shown) {
+  return ConfigError(
+      fmt::format("--out '{}': too many levels of symbolic links (a loop?)", shown.string()),
+      "--out");
 }
 
 fs::path resolve_run_directory(const fs::path& target) {

@@ -31,6 +31,8 @@
 #include <string>
 #include <vector>
 
+#include "config/ParameterSet.hpp"
+
 namespace ehlsim {
 
 /// An exclusive lock on a target path, held until destruction or the death
@@ -126,8 +128,13 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 /// `target` absolute, without a trailing separator, with the symbolic links of
 /// its parent resolved (one spelling per directory, for the lock); creates
 /// the parent.  Throws ConfigError for "" or a path without a name, or below a
-/// file; std::runtime_error when the parent cannot be created otherwise.
+/// file or a loop of symbolic links; std::runtime_error when the parent
+/// cannot be created otherwise.
 [[nodiscard]] std::filesystem::path resolve_run_directory(const std::filesystem::path& target);
+
+/// The ConfigError of an --out `shown` that runs into a loop of symbolic
+/// links (in its final name or in a parent).
+[[nodiscard]] ConfigError link_loop_error(const std::filesystem::path& shown);
 
 /// Whether `inside` is the directory `dir` or lies below it (both existing;
 /// symbolic links resolved).  False when either cannot be resolved.
