@@ -515,6 +515,7 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
   fine.update_coefficients(solver->solution());
   InitialSolve result{fine.force(solver->solution()), solver->residual_norm()};
   const int cycles = static_cast<int>(residuals.size());
+  if (cycles > 0) result.first_residual = residuals.front();
   if (cycles > kInitialRateCycles)
     result.rate = std::pow(result.residual / residuals[cycles - kInitialRateCycles],
                            1.0 / kInitialRateCycles);

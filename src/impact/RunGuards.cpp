@@ -141,7 +141,8 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
 void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
   const double force = s.force, residual = s.residual;
   if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;
-  if (std::isfinite(force) && std::isfinite(residual) && s.rate <= kStillConvergingRate) {
+  const bool converging = s.rate <= kStillConvergingRate && residual < s.first_residual;
+  if (std::isfinite(force) && std::isfinite(residual) && converging) {
     throw RunFailure(fmt::format(
         "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} was still converging "
         "when solver.max_cycles = {} ran out (residual {:.3g}, falling by {:.2f} per cycle, "
