@@ -44,6 +44,34 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
             c.x_max, c.y_min, c.y_max);
   std::fflush(stdout);
 }
+
+/// The progress line of one multigrid cycle.
+void print_cycle(const RollingCycle& c) {
+  const std::string retry = c.attempt > 0 ? fmt::format(" (retry at damping {:g})", c.damping) : "";
+  print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}\n", c.points,
+            c.cycle, c.residual, c.force_error, c.Hc, retry);
+}
+
+/// Why the first run stopped, when the solve starts again with the other
+/// deformation update (RollingConfig::fallback_update).
+void print_fallback(const RollingConfig& c, const std::string& why) {
+  print_out("  {}; solving again from the start with the deformation updated {}\n", why,
+            c.relaxation.deformation_each_colour ? "once per sweep" : "before each colour");
+}
+
+void print_rolling_summary(const RollingConfig& c, const RollingResult& r, double wall,
+                           const std::string& out_dir) {
+  const std::string fallback =
+      r.fallback_after > 0
+          ? fmt::format(" (after {} with the other deformation update)", r.fallback_after)
+          : "";
+  print_out(
+      "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "
+      "P_max = {:.5g}; {} cycles{}, {:.2f} s; output in {}\n",
+      r.Hc, hertz_to_moes_film(r.Hc, c.M), nvm_central_film(c.M, c.L, c.D), r.Hm, r.X_Hm, r.P_max,
+      r.cycles, fallback, wall, out_dir);
+  cli::print_warnings(r.warnings);
+}
 }  // namespace
 
 int run_rolling(const RollingOptions& options) {
@@ -59,14 +87,14 @@ int run_rolling(const RollingOptions& options) {
   RollingResult result;
   try {
     RollingProblem problem(config);
-    result = problem.run([&](const RollingCycle& c) {
-      if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
-      if (options.quiet) return;
-      const std::string retry =
-          c.attempt > 0 ? fmt::format(" (retry at damping {:g})", c.damping) : "";
-      print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}\n",
-                c.points, c.cycle, c.residual, c.force_error, c.Hc, retry);
-    });
+    result = problem.run(
+        [&](const RollingCycle& c) {
+          if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
+          if (!options.quiet) print_cycle(c);
+        },
+        [&](const std::string& why) {
+          if (!options.quiet) print_fallback(config, why);
+        });
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());
     return cli::kExitFailure;
@@ -89,14 +117,6 @@ int run_rolling(const RollingOptions& options) {
                  signal_name(e.signal).c_str(), options.out_dir.c_str());
     return exit_code_for_signal(e.signal);
   }
-  if (!options.quiet) {
-    print_out(
-        "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "
-        "P_max = {:.5g}; {} cycles, {:.2f} s; output in {}\n",
-        result.Hc, hertz_to_moes_film(result.Hc, config.M),
-        nvm_central_film(config.M, config.L, config.D), result.Hm, result.X_Hm, result.P_max,
-        result.cycles, wall, options.out_dir);
-    cli::print_warnings(result.warnings);
-  }
+  if (!options.quiet) print_rolling_summary(config, result, wall, options.out_dir);
   return cli::kExitOk;
 }

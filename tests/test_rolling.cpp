@@ -11,6 +11,7 @@
 #include <numbers>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "config/RollingParameters.hpp"
 #include "rolling/DryEllipticHertz.hpp"
@@ -506,10 +507,11 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
 }
 
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
-  // One cycle cannot converge anything: the message names the cycles and
-  // the other deformation update.
+  // One cycle cannot converge anything.  Without the fallback the message
+  // names the cycles and the other deformation update.
   RollingConfig config = rolling_case(100, 10, 33);
   config.max_cycles = 1;
+  config.fallback_update = false;
   const std::string hint = "--set solver.deformation_updates=colour";
   const std::string message = failure_message(config);
   EXPECT_EQ(message.rfind("not converged in solver.max_cycles = 1 cycles on the 33^2 grid", 0), 0u)
@@ -527,8 +529,60 @@ TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
                         "solver.deformation_updates=sweep"),
             std::string::npos)
       << colour;
+  // With the fallback (the default) both updates were tried: the message
+  // says how each ended, and names only more cycles.
+  config.fallback_update = true;
+  const std::string both = failure_message(config);
+  EXPECT_EQ(both.rfind("not converged in solver.max_cycles = 1 cycles on the 33^2 grid", 0), 0u)
+      << both;
+  EXPECT_NE(both.find(", with the deformation updated once per sweep; with it updated before "
+                      "each colour of the relaxation before that: not converged in "
+                      "solver.max_cycles = 1 cycles"),
+            std::string::npos)
+      << both;
+  EXPECT_NE(both.find("; more cycles (solver.max_cycles) may converge it"), std::string::npos)
+      << both;
+  EXPECT_EQ(both.find("--set solver.deformation_updates"), std::string::npos) << both;
   // Nor where the domain or the divergence is the reason.
   EXPECT_EQ(failure_message(rolling_case(1, 0, 33)).find(hint), std::string::npos);
+}
+
+TEST(Rolling, ARunOutOfCyclesSolvesAgainWithTheOtherUpdate) {
+  // M = 10, L = 20 on 129^2 converges in 22 cycles with the deformation
+  // updated once per sweep and in 15 with it updated before each colour
+  // (docs/validation.md).  With 18 cycles the first run runs out and the
+  // second converges: its result is the per-colour run's own, bit for bit,
+  // and the work of both is counted.
+  RollingConfig config = rolling_case(10, 20, 129);
+  config.max_cycles = 18;
+  std::vector<std::string> told;
+  const RollingResult r =
+      RollingProblem(config).run({}, [&](const std::string& why) { told.push_back(why); });
+  ASSERT_EQ(told.size(), 1u);
+  EXPECT_EQ(told[0].rfind("not converged in solver.max_cycles = 18 cycles on the 129^2 grid", 0),
+            0u)
+      << told[0];
+  RollingConfig colour = config;
+  colour.relaxation.deformation_each_colour = true;
+  const RollingResult direct = solve(colour);
+  EXPECT_TRUE(r.each_colour);
+  EXPECT_EQ(r.fallback_after, 18);
+  EXPECT_EQ(r.cycles, direct.cycles);
+  EXPECT_EQ(r.Hc, direct.Hc);
+  EXPECT_EQ(r.H0, direct.H0);
+  EXPECT_GT(r.work, direct.work);
+  EXPECT_DOUBLE_EQ(r.work, r.history.back().work);
+  // The history holds both runs, each cycle marked with its update.
+  const auto per_sweep = std::count_if(r.history.begin(), r.history.end(),
+                                       [](const RollingCycle& c) { return !c.each_colour; });
+  EXPECT_EQ(std::ssize(r.history), per_sweep + std::ssize(direct.history));
+  // The film is the converged one: the per-sweep run with room to converge
+  // gives the same Hc to the tolerance's reach.
+  config.max_cycles = 200;
+  const RollingResult sweep = solve(config);
+  EXPECT_EQ(sweep.fallback_after, 0);
+  EXPECT_FALSE(sweep.each_colour);
+  EXPECT_NEAR(r.Hc, sweep.Hc, 1e-4 * sweep.Hc);
 }
 
 TEST(EdgeLoad, AUniformPressureGivesTheBandsShareOfTheDomain) {
@@ -629,11 +683,33 @@ TEST(RollingCli, WritesTheRunDirectory) {
     EXPECT_TRUE(std::filesystem::exists(dir / "run" / file)) << file;
   const std::string history = testing::read_file(dir / "run" / "convergence.csv");
   EXPECT_EQ(history.substr(0, history.find('\n')),
-            "points,cycle,attempt,damping,residual,force_error,Hc,H0,work");
+            "points,cycle,attempt,damping,residual,force_error,Hc,H0,work,deformation_updates");
   const std::string json = testing::read_file(dir / "run" / "run.json");
   for (const char* key :
        {"\"Hc\"", "\"Hm\"", "\"Hc_moes\"", "\"Hm_moes\"", "\"H0\"", "\"P_max\"", "\"residual\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
+}
+
+TEST(RollingCli, SaysWhenItSolvedAgainWithTheOtherUpdate) {
+  // The case of Rolling.ARunOutOfCyclesSolvesAgainWithTheOtherUpdate: the
+  // progress says why the first run stopped, the summary and run.json which
+  // update converged after how many cycles of the other.
+  const testing::TempDir dir("rolling-fallback");
+  const auto r = testing::ehlsim(
+      "rolling --set case.M=10 --set case.L=20 --set grid.points=129 --set solver.max_cycles=18 "
+      "--out " +
+      testing::quote((dir / "run").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(solver.tolerance = 1e-05); solving again from the start with the "
+                       "deformation updated before each colour\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("15 cycles (after 18 with the other deformation update)"), std::string::npos)
+      << r.out;
+  const auto run = nlohmann::json::parse(testing::read_file(dir / "run" / "run.json"));
+  EXPECT_EQ(run["results"]["deformation_updates"], "colour");
+  EXPECT_EQ(run["results"]["fallback_after_cycles"], 18);
+  EXPECT_EQ(run["parameters"]["solver"]["deformation_updates"], "sweep");
 }
 
 TEST(RollingCli, RejectsANonSquareDomain) {

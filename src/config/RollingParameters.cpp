@@ -57,6 +57,9 @@ std::vector<ParameterSpec> build_rolling_registry() {
                    "fraction of the Newton change of H0 (force balance) applied after a cycle"));
   r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), kUnbounded, false,
                       "cycles on each coarser grid of the full multigrid start"));
+  r.push_back(boolean("solver.fallback_update", kDefaults.fallback_update,
+                      "an elastic contact that runs out of cycles solves again from its start "
+                      "with the other deformation update (solver.deformation_updates)"));
   return r;
 }
 
@@ -199,6 +202,7 @@ RollingConfig load_rolling_config(const std::optional<std::filesystem::path>& fi
   static_cast<SolverSettings&>(c) = assemble_solver(in);
   c.h0_relaxation = in.real("solver.h0_relaxation");
   c.fmg_cycles = in.integer("solver.fmg_cycles");
+  c.fallback_update = in.get<bool>("solver.fallback_update");
   return c;
 }
 
@@ -236,6 +240,7 @@ nlohmann::json rolling_parameters_json(const RollingConfig& c) {
   j["solver"] = solver_settings_json(c);
   j["solver"]["h0_relaxation"] = c.h0_relaxation;
   j["solver"]["fmg_cycles"] = c.fmg_cycles;
+  j["solver"]["fallback_update"] = c.fallback_update;
   return j;
 }
 

@@ -8,6 +8,7 @@
 
 #include "config/ParameterSet.hpp"
 #include "grid/NumberText.hpp"
+#include "reynolds/LineRelaxation.hpp"
 
 namespace ehlsim {
 
@@ -29,8 +30,6 @@ constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
 constexpr std::string_view kLinesAlternating = "alternating";
 constexpr std::string_view kLinesX = "x";
-constexpr std::string_view kUpdatesPerSweep = "sweep";
-constexpr std::string_view kUpdatesPerColour = "colour";
 }  // namespace
 
 std::string_view viscosity_model_text(ViscosityModel model) {
@@ -89,7 +88,7 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.relaxation.alternate_directions =
       in.get<std::string>("solver.line_directions") == kLinesAlternating;
   c.relaxation.deformation_each_colour =
-      in.get<std::string>("solver.deformation_updates") == kUpdatesPerColour;
+      in.get<std::string>("solver.deformation_updates") == reynolds::kUpdatesPerColour;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
@@ -171,12 +170,13 @@ void add_relaxation_parameters(std::vector<ParameterSpec>& r,
                      relax.alternate_directions ? kLinesAlternating : kLinesX,
                      {std::string(kLinesAlternating), std::string(kLinesX)},
                      "relaxation lines: along X and Y in turn (alternating), or along X only"));
-  r.push_back(choice("solver.deformation_updates",
-                     relax.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep,
-                     {std::string(kUpdatesPerSweep), std::string(kUpdatesPerColour)},
-                     "the relaxation recomputes the elastic deformation once per sweep (and "
-                     "for its second colour where elastically coupled Gauss-Seidel points "
-                     "outnumber distributive ones), or before each of its two colours"));
+  r.push_back(
+      choice("solver.deformation_updates",
+             reynolds::deformation_updates_text(relax.deformation_each_colour),
+             {std::string(reynolds::kUpdatesPerSweep), std::string(reynolds::kUpdatesPerColour)},
+             "the relaxation recomputes the elastic deformation once per sweep (and "
+             "for its second colour where elastically coupled Gauss-Seidel points "
+             "outnumber distributive ones), or before each of its two colours"));
 }
 
 }  // namespace
@@ -329,7 +329,7 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
           {"omega_jacobi", c.relaxation.omega_jacobi},
           {"line_directions", c.relaxation.alternate_directions ? kLinesAlternating : kLinesX},
           {"deformation_updates",
-           c.relaxation.deformation_each_colour ? kUpdatesPerColour : kUpdatesPerSweep},
+           reynolds::deformation_updates_text(c.relaxation.deformation_each_colour)},
           {"face_mean", face_mean_text(c.face_mean)},
           {"memory_limit_mb",
            c.memory_limit_mb > 0.0 ? nlohmann::json(c.memory_limit_mb) : nlohmann::json(nullptr)},

@@ -9,6 +9,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
 #include "io/FieldWriter.hpp"
+#include "reynolds/LineRelaxation.hpp"
 #include "rolling/FilmFormula.hpp"
 
 namespace ehlsim {
@@ -31,11 +32,12 @@ void write_profiles(const std::filesystem::path& dir, const RollingResult& r) {
   for (int j = 0; j < g.n; ++j)
     along_y.append(fmt::format("{:.10g},{:.10g},{:.10g}", g.y(j), r.P(i_m, j), r.H(i_m, j)));
   CsvWriter history(dir / "convergence.csv",
-                    "points,cycle,attempt,damping,residual,force_error,Hc,H0,work");
+                    "points,cycle,attempt,damping,residual,force_error,Hc,H0,work,"
+                    "deformation_updates");
   for (const RollingCycle& c : r.history)
-    history.append(fmt::format("{},{},{},{:g},{:.6e},{:.6e},{:.10g},{:.10g},{:.2f}", c.points,
+    history.append(fmt::format("{},{},{},{:g},{:.6e},{:.6e},{:.10g},{:.10g},{:.2f},{}", c.points,
                                c.cycle, c.attempt, c.damping, c.residual, c.force_error, c.Hc, c.H0,
-                               c.work));
+                               c.work, reynolds::deformation_updates_text(c.each_colour)));
   along_x.commit();
   along_y.commit();
   history.commit();
@@ -62,6 +64,8 @@ nlohmann::json rolling_results_json(const RollingConfig& c, const RollingResult&
           {"force_error", r.force_error},
           {"cycles", r.cycles},
           {"work_units", r.work},
+          {"deformation_updates", reynolds::deformation_updates_text(r.each_colour)},
+          {"fallback_after_cycles", r.fallback_after},
           {"edge_load_share", r.edge_load},
           {"warnings", r.warnings}};
 }

@@ -21,6 +21,7 @@
 // terms, of the density at the point, and of the transport terms through the
 // elastic kernel truncated to the band (|i - k| <= 2), for both kinds.
 #include <array>
+#include <string_view>
 #include <vector>
 
 #include "grid/Grid.hpp"
@@ -67,6 +68,14 @@ struct RelaxationSettings {
   /// section 7).
   bool deformation_each_colour = false;
 };
+
+/// The value of the key solver.deformation_updates that selects
+/// RelaxationSettings::deformation_each_colour, or not.
+inline constexpr std::string_view kUpdatesPerSweep = "sweep";
+inline constexpr std::string_view kUpdatesPerColour = "colour";
+[[nodiscard]] inline std::string_view deformation_updates_text(bool each_colour) {
+  return each_colour ? kUpdatesPerColour : kUpdatesPerSweep;
+}
 
 /// A Gauss-Seidel point whose flow coefficients exceed this times the switch's
 /// bound (switch_ratio times the elastic term) is flow-dominated and relaxed

@@ -324,6 +324,7 @@ RollingCycle RollingProblem::Impl::cycle_on(int level, int attempt) {
   record.Hc = value_at(op.film(), op.grid(), 0.0, 0.0);
   record.H0 = h0;
   record.work = hierarchy.work_units();
+  record.each_colour = cfg.relaxation.deformation_each_colour;
   history.push_back(record);
   return record;
 }
@@ -444,6 +445,7 @@ RollingResult RollingProblem::Impl::result() const {
   r.force_error = history.back().force_error;
   r.cycles = history.back().cycle;  // on the finest grid, over all its attempts
   r.work = hierarchy.work_units();
+  r.each_colour = cfg.relaxation.deformation_each_colour;
   r.edge_load = edge_load_share(grid, r.P);
   if (std::string note = domain_note(r.edge_load); !note.empty())
     r.warnings.push_back(std::move(note));
@@ -492,38 +494,76 @@ std::string rigid_hint(const RollingConfig& c, double mesh) {
   return {};
 }
 
+/// How the relaxation updates the deformation, for messages.
+std::string update_text(bool each_colour) {
+  return each_colour ? "before each colour of the relaxation" : "once per sweep";
+}
+
 /// What else to try when an elastic contact's iteration ran out of cycles
-/// (not when its domain is the reason): the other deformation update.  At
-/// L = 20 on 1025^2 neither converges every case: M = 10 ran out of 200
-/// cycles at residual 0.28 with the default and converged in 224 with the
-/// per-colour update, M = 20 converged in 76 with the default and ran out of
-/// 400 with the per-colour one (docs/validation.md, "M = 10, L = 20: where
-/// the residual stays").
-std::string relaxation_hint(const RollingConfig& c) {
+/// (not when its domain is the reason): the other deformation update, unless
+/// the run has tried it (RollingConfig::fallback_update says why).
+std::string relaxation_hint(const RollingConfig& c, bool other_update_tried) {
+  if (other_update_tried) return "; more cycles (solver.max_cycles) may converge it";
   const bool each_colour = c.relaxation.deformation_each_colour;
   return fmt::format(
       "; more cycles (solver.max_cycles), or the deformation updated {} (--set "
       "solver.deformation_updates={}: at L = 20 on 1025^2 each of the two converges a case the "
       "other does not), may converge it",
-      each_colour ? "once per sweep" : "before each colour of the relaxation",
-      each_colour ? "sweep" : "colour");
+      update_text(!each_colour), reynolds::deformation_updates_text(!each_colour));
 }
 }  // namespace
 
-RollingResult RollingProblem::run(const CycleMonitor& monitor) {
+RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMonitor& on_fallback) {
+  std::string first_failure;
   try {
     return solve(monitor);
   } catch (const RollingFailure& e) {
     const RollingConfig& c = impl_->cfg;
     const std::string domain = impl_->domain_hint();
-    std::string why;
-    if (!c.elastic) {
-      why = rigid_hint(c, impl_->grid.h());
-    } else if (domain.empty() && dynamic_cast<const CyclesExhausted*>(&e) != nullptr) {
-      why = relaxation_hint(c);
+    const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
+    if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty())) {
+      std::string why;
+      if (!c.elastic) {
+        why = rigid_hint(c, impl_->grid.h());
+      } else if (domain.empty() && out_of_cycles) {
+        why = relaxation_hint(c, false);
+      }
+      throw RollingFailure(e.what() + domain + why);
     }
-    throw RollingFailure(e.what() + domain + why);
+    first_failure = e.what();
   }
+  return solve_with_other_update(first_failure, monitor, on_fallback);
+}
+
+RollingResult RollingProblem::solve_with_other_update(const std::string& why,
+                                                      const CycleMonitor& monitor,
+                                                      const FallbackMonitor& on_fallback) {
+  std::vector<RollingCycle> history = std::move(impl_->history);
+  const double work = impl_->hierarchy.work_units();
+  const int cycles = history.back().points == impl_->grid.n ? history.back().cycle : 0;
+  RollingConfig other = impl_->cfg;
+  const bool each_colour = !other.relaxation.deformation_each_colour;
+  other.relaxation.deformation_each_colour = each_colour;
+  impl_.reset();  // one hierarchy in memory at a time
+  impl_ = std::make_unique<Impl>(other);
+  if (on_fallback) on_fallback(why);
+  RollingResult result;
+  try {
+    result = solve(monitor);
+  } catch (const RollingFailure& e) {
+    const std::string domain = impl_->domain_hint();
+    const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
+    throw RollingFailure(
+        fmt::format("{}{}, with the deformation updated {}; with it updated {} before that: {}{}",
+                    e.what(), domain, update_text(each_colour), update_text(!each_colour), why,
+                    domain.empty() && out_of_cycles ? relaxation_hint(other, true) : ""));
+  }
+  for (RollingCycle& c : result.history) c.work += work;
+  history.insert(history.end(), result.history.begin(), result.history.end());
+  result.history = std::move(history);
+  result.work += work;
+  result.fallback_after = cycles;
+  return result;
 }
 
 RollingResult RollingProblem::solve(const CycleMonitor& monitor) {

@@ -28,7 +28,8 @@ struct RollingCycle {
   double force_error = 0.0;  ///< (h^2 sum P - 2 pi / 3) / (2 pi / 3)
   double Hc = 0.0;           ///< central film H(0, 0)
   double H0 = 0.0;
-  double work = 0.0;  ///< deformation evaluations so far, in finest-grid units
+  double work = 0.0;         ///< deformation evaluations so far, in finest-grid units
+  bool each_colour = false;  ///< deformation updated before each colour (else once per sweep)
 };
 
 struct RollingResult {
@@ -39,8 +40,12 @@ struct RollingResult {
   double P_max = 0.0, X_P_max = 0.0, Y_P_max = 0.0;  ///< maximum pressure and its position
   double H0 = 0.0;
   double residual = 0.0, force_error = 0.0;
-  int cycles = 0;          ///< on the finest grid
-  double work = 0.0;       ///< deformation evaluations, in finest-grid units
+  int cycles = 0;            ///< on the finest grid, of the run that converged
+  double work = 0.0;         ///< deformation evaluations of every run, in finest-grid units
+  bool each_colour = false;  ///< the deformation update of the run that converged
+  /// Finest-grid cycles of a first run that ran out of them with the other
+  /// update (RollingConfig::fallback_update); 0 when the first run converged.
+  int fallback_after = 0;
   double edge_load = 0.0;  ///< edge_load_share of P
   /// What the user should know about the result (the load reaching the
   /// domain's inlet and side edges), one line each.
@@ -62,13 +67,24 @@ class RollingProblem {
   RollingProblem& operator=(const RollingProblem&) = delete;
 
   using CycleMonitor = std::function<void(const RollingCycle&)>;
-  /// Solves to solver.tolerance; throws RollingFailure when it cannot.
-  [[nodiscard]] RollingResult run(const CycleMonitor& monitor = {});
+  /// Told why the first run failed when the solve starts again with the
+  /// other deformation update (RollingConfig::fallback_update).
+  using FallbackMonitor = std::function<void(const std::string& why)>;
+  /// Solves to solver.tolerance; throws RollingFailure when it cannot.  An
+  /// elastic contact that runs out of cycles with one deformation update is
+  /// solved again from its start with the other (RollingConfig::fallback_update).
+  [[nodiscard]] RollingResult run(const CycleMonitor& monitor = {},
+                                  const FallbackMonitor& on_fallback = {});
   /// The grid of the case's domain and grid.points.
   [[nodiscard]] static Grid2D grid_of(const RollingConfig& config);
 
  private:
   [[nodiscard]] RollingResult solve(const CycleMonitor& monitor);
+  /// solve() again from the start with the other deformation update, after
+  /// a first run that ran out of cycles with `why`.
+  [[nodiscard]] RollingResult solve_with_other_update(const std::string& why,
+                                                      const CycleMonitor& monitor,
+                                                      const FallbackMonitor& on_fallback);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
