@@ -445,6 +445,12 @@ TEST(RegistryErrors, InconsistentCombinations) {
   EXPECT_EQ(set_error({"lubricant.eta0=0.04"}),
             "lubricant.eta0 = 0.04: is used only by lubricant.viscosity = \"roelands\" (the law is "
             "\"barus\") (--set)");
+  // ... and so is ph*, which only the Roelands and Dowson-Higginson laws use.
+  EXPECT_EQ(
+      set_error({"lubricant.ph_star=1e9"}),
+      "lubricant.ph_star = 1000000000: is used only by lubricant.viscosity = \"roelands\" and "
+      "lubricant.density = \"dowson-higginson\" (the laws are \"barus\" and "
+      "\"incompressible\") (--set)");
   // One cycle must end in reasonable time: a signal is acted on between cycles.
   EXPECT_EQ(set_error({"solver.pre_sweeps=2000000000"}),
             "solver.pre_sweeps = 2000000000: must be in [0, 20] (--set)");

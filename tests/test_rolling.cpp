@@ -489,12 +489,10 @@ TEST(Rolling, CompressibleFilmIsThinnerInTheContact) {
   // Dowson-Higginson: the lubricant is denser in the contact (rho_bar = 1.19
   // at 0.5 GPa), so the same mass flow passes a thinner film (rho H is what
   // the wedge carries): Hc 0.1241 against 0.1407 on 65^2.
-  auto with_density = [](const char* law) {
-    return load_rolling_config(std::nullopt, {"grid.points=65", "lubricant.ph_star=0.5e9",
-                                              std::string("lubricant.density=") + law});
-  };
-  const RollingResult incompressible = solve(with_density("incompressible"));
-  const RollingResult compressible = solve(with_density("dowson-higginson"));
+  const RollingResult incompressible = solve(load_rolling_config(std::nullopt, {"grid.points=65"}));
+  const RollingResult compressible =
+      solve(load_rolling_config(std::nullopt, {"grid.points=65", "lubricant.ph_star=0.5e9",
+                                               "lubricant.density=dowson-higginson"}));
   EXPECT_LT(compressible.Hc, 0.95 * incompressible.Hc);
   EXPECT_GT(compressible.Hc, 0.80 * incompressible.Hc);
   EXPECT_GT(compressible.Hm, 0.0);
@@ -817,6 +815,15 @@ TEST(RollingCli, MemoryGuardRefusesAHugeGridAtOnce) {
   EXPECT_EQ(memory.at("limit_mb"), 5000.0);
   EXPECT_EQ(memory.at("limit_source"), "solver.memory_limit_mb");
   EXPECT_EQ(run.at("parameters").at("solver").at("memory_limit_mb"), 5000.0);
+}
+
+TEST(RollingCli, RefusesARunawayFullMultigridStart) {
+  // Every coarse stage runs all its solver.fmg_cycles: 1e9 ran on for days.
+  const auto r = testing::ehlsim(
+      "rolling --quiet --set grid.points=33 --set solver.fmg_cycles=1000000000 --out "
+      "/nonexistent/x");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: solver.fmg_cycles = 1000000000: must be in [1, 200] (--set)\n");
 }
 
 TEST(RollingCli, HelpListsItsOwnKeys) {

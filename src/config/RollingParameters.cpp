@@ -13,6 +13,11 @@
 namespace ehlsim {
 
 namespace {
+/// Most cycles per coarse grid of the full multigrid start.  A coarse stage
+/// runs all of them (only the finest grid stops at the tolerance), so 1e9
+/// would run for days; 200 is the most tried (docs/validation.md, "M = 10,
+/// L = 20": it did not help).
+constexpr int kMaxFmgCycles = 200;
 
 const RollingConfig kDefaults{};
 
@@ -55,7 +60,8 @@ std::vector<ParameterSpec> build_rolling_registry() {
                         "(exit 1)");
   r.push_back(real("solver.h0_relaxation", kDefaults.h0_relaxation, "", above(0), at_most(1), "",
                    "fraction of the Newton change of H0 (force balance) applied after a cycle"));
-  r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1), kUnbounded, false,
+  r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1),
+                      at_most(kMaxFmgCycles), false,
                       "cycles on each coarser grid of the full multigrid start"));
   r.push_back(boolean("solver.fallback_update", kDefaults.fallback_update,
                       "an elastic contact that runs out of cycles solves again from its start "

@@ -288,6 +288,11 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
                                   user),
                       "lubricant.ph_star");
   }
+  if (!roelands && !dowson_higginson && in.has("lubricant.ph_star")) {
+    in.fail("lubricant.ph_star",
+            "is used only by lubricant.viscosity = \"roelands\" and lubricant.density = "
+            "\"dowson-higginson\" (the laws are \"barus\" and \"incompressible\")");
+  }
   if (!roelands) {
     refuse_roelands_inputs(in);
     return lub;
