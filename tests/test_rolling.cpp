@@ -624,6 +624,32 @@ TEST(Rolling, WarnsWhenTheLoadReachesTheDomainEdges) {
   EXPECT_TRUE(usual.warnings.empty());
 }
 
+TEST(Rolling, WarnsWhenHcIsFarFromTheFormula) {
+  // The default case on 33^2 is 51 % below the formula (the grid's), on
+  // 129^2 0.5 %: one warning, naming the grid, and none.
+  const RollingResult coarse = solve(rolling_case(100, 10, 33));
+  ASSERT_EQ(coarse.warnings.size(), 1u);
+  EXPECT_EQ(coarse.warnings[0].rfind("Hc is -51 % from the Nijenbanning-Venner-Moes formula", 0),
+            0u)
+      << coarse.warnings[0];
+  EXPECT_NE(coarse.warnings[0].find("compare with more grid.points"), std::string::npos);
+  EXPECT_TRUE(solve(rolling_case(100, 10, 129)).warnings.empty());
+  // Roelands with Dowson-Higginson on 129^2 is 20 % below it, D = 4 16 %
+  // above: the warning names the lubricant, and D.
+  const RollingResult roelands = solve(load_rolling_config(
+      std::nullopt, {"grid.points=129", "lubricant.viscosity=roelands", "lubricant.eta0=0.04",
+                     "lubricant.ph_star=1e9", "lubricant.density=dowson-higginson"}));
+  ASSERT_EQ(roelands.warnings.size(), 1u);
+  EXPECT_NE(roelands.warnings[0].find("the formula is for a Barus, incompressible lubricant"),
+            std::string::npos)
+      << roelands.warnings[0];
+  const RollingResult long_contact =
+      solve(load_rolling_config(std::nullopt, {"grid.points=129", "case.D=4"}));
+  ASSERT_EQ(long_contact.warnings.size(), 1u);
+  EXPECT_NE(long_contact.warnings[0].find("for D = Rx/Ry > 1"), std::string::npos)
+      << long_contact.warnings[0];
+}
+
 TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
   // M = 1, L = 0: the film grows with the domain (Hc 2.4, 6.5 and 11.9 Moes
   // on the default domain and on two and four times it; the formula 41.6),
