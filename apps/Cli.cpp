@@ -8,6 +8,22 @@
 
 namespace cli {
 
+namespace {
+/// A runaway word of a message (ehlsim::echo_input) with the quotes and
+/// punctuation around it kept: `'/a/b...',` stays quoted and followed by
+/// its comma, and the size is the word's own.
+std::string shortened_word(std::string_view word) {
+  constexpr std::string_view kOpening = "'\"(", kClosing = "'\"),:;.";
+  const std::size_t first = word.find_first_not_of(kOpening);
+  const std::size_t last = word.find_last_not_of(kClosing);
+  if (first == std::string_view::npos || last == std::string_view::npos || last < first)
+    return ehlsim::echo_input(word);
+  return std::string(word.substr(0, first)) +
+         ehlsim::echo_input(word.substr(first, last + 1 - first)) +
+         std::string(word.substr(last + 1));
+}
+}  // namespace
+
 void print_error(std::string_view message) {
   // After what stdout holds so far, also when both go to one file (a study's
   // case log, whose last line the study reports as the reason).
@@ -19,7 +35,7 @@ void print_error(std::string_view message) {
   while (start <= message.size()) {
     const std::size_t end = std::min(message.find(' ', start), message.size());
     const std::string_view word = message.substr(start, end - start);
-    line += word.size() > kLongestWord ? ehlsim::echo_input(word) : std::string(word);
+    line += word.size() > kLongestWord ? shortened_word(word) : std::string(word);
     if (end < message.size()) line += ' ';
     start = end + 1;
   }

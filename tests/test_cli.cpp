@@ -154,6 +154,20 @@ TEST(Cli, RunawayValuesAreShortenedInErrors) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_LT(r.err.size(), 300u) << r.err.substr(0, 300);
   EXPECT_NE(r.err.find("... (100000 bytes)"), std::string::npos) << r.err.substr(0, 300);
+  // A path longer than any file name keeps its quotes and the punctuation
+  // after it, and its size is the path's.
+  fs::path deep = dir.path();
+  for (int i = 0; i < 22; ++i) deep /= std::string(200, 'b');
+  const std::string out = (deep / "run").string();
+  const Result long_path = ehlsim("impact --quiet --out " + quote(out));
+  EXPECT_EQ(long_path.exit_code, 1);
+  EXPECT_NE(long_path.err.find(fmt::format("... ({} bytes)', the parent directory of --out '",
+                                           deep.string().size())),
+            std::string::npos)
+      << long_path.err;
+  EXPECT_NE(long_path.err.find(fmt::format("... ({} bytes)': File name too long\n", out.size())),
+            std::string::npos)
+      << long_path.err;
 }
 
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
