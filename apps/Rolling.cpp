@@ -13,6 +13,7 @@
 #include "impact/ImpactObserver.hpp"
 #include "io/Interrupt.hpp"
 #include "io/MemoryGuard.hpp"
+#include "io/ProgressLine.hpp"
 #include "io/RollingOutput.hpp"
 #include "io/RunDirectory.hpp"
 #include "rolling/FilmFormula.hpp"
@@ -45,18 +46,20 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
   std::fflush(stdout);
 }
 
-/// The progress line of one multigrid cycle.
-void print_cycle(const RollingCycle& c) {
+/// The status line after one multigrid cycle.
+std::string cycle_text(const RollingCycle& c, double elapsed, bool done) {
   const std::string retry = c.attempt > 0 ? fmt::format(" (retry at damping {:g})", c.damping) : "";
-  print_out("  {:4}^2 cycle {:2}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}\n", c.points,
-            c.cycle, c.residual, c.force_error, c.Hc, retry);
+  return fmt::format("{}^2 cycle {}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}  {}{}",
+                     c.points, c.cycle, c.residual, c.force_error, c.Hc, retry,
+                     done ? "done in " : "", format_duration(elapsed));
 }
 
 /// Why the first run stopped, when the solve starts again with the other
 /// deformation update (RollingConfig::fallback_update).
-void print_fallback(const RollingConfig& c, const std::string& why) {
-  print_out("  {}; solving again from the start with the deformation updated {}\n", why,
-            c.relaxation.deformation_each_colour ? "once per sweep" : "before each colour");
+std::string fallback_text(const RollingConfig& c, const std::string& why) {
+  return fmt::format(
+      "{}; solving again from the start with the deformation updated {}", why,
+      c.relaxation.deformation_each_colour ? "once per sweep" : "before each colour");
 }
 
 void print_rolling_summary(const RollingConfig& c, const RollingResult& r, double wall,
@@ -85,16 +88,16 @@ int run_rolling(const RollingOptions& options) {
   if (!options.quiet) print_rolling_case(config, options.out_dir);
   const auto start = std::chrono::steady_clock::now();
   RollingResult result;
+  StatusLine status(!options.quiet);
   try {
     RollingProblem problem(config);
     result = problem.run(
         [&](const RollingCycle& c) {
           if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
-          if (!options.quiet) print_cycle(c);
+          status.update([c](double elapsed, bool done) { return cycle_text(c, elapsed, done); });
         },
-        [&](const std::string& why) {
-          if (!options.quiet) print_fallback(config, why);
-        });
+        [&](const std::string& why) { status.note(fallback_text(config, why)); });
+    status.finish();
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());
     return cli::kExitFailure;

@@ -1189,6 +1189,27 @@ TEST(Progress, QuietPrintsNothingAndLogsPrintLines) {
   std::fclose(log_stream);
 }
 
+TEST(Progress, AStatusLineShowsANoteAndThenItsStateAgain) {
+  std::FILE* log_stream = std::tmpfile();
+  ASSERT_TRUE(log_stream);
+  {
+    StatusLine line(true, log_stream);  // a file: full lines, throttled
+    const auto state = [](int n) {
+      return [n](double, bool done) { return fmt::format("state {}{}", n, done ? " done" : ""); };
+    };
+    for (int n = 1; n <= 50; ++n) line.update(state(n));
+    line.note("an event");
+    for (int n = 51; n <= 100; ++n) line.update(state(n));
+    line.finish();
+  }
+  std::rewind(log_stream);
+  std::string text(4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  // The first state, the note, the first state after it, the last one done.
+  EXPECT_EQ(text, "state 1\nan event\nstate 51\nstate 100 done\n");
+  std::fclose(log_stream);
+}
+
 // ---------------------------------------------------------------------------
 // RunOutput
 // ---------------------------------------------------------------------------

@@ -724,12 +724,15 @@ TEST(RollingCli, SaysWhenItSolvedAgainWithTheOtherUpdate) {
       "--out " +
       testing::quote((dir / "run").string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("(solver.tolerance = 1e-05); solving again from the start with the "
+  EXPECT_NE(r.err.find("(solver.tolerance = 1e-05); solving again from the start with the "
                        "deformation updated before each colour\n"),
             std::string::npos)
-      << r.out;
+      << r.err;
   EXPECT_NE(r.out.find("15 cycles (after 18 with the other deformation update)"), std::string::npos)
       << r.out;
+  // The progress is on stderr, as the impact's (stdout: the case and the summary).
+  EXPECT_EQ(r.out.find("^2 cycle"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("129^2 cycle 15: residual "), std::string::npos) << r.err;
   const auto run = nlohmann::json::parse(testing::read_file(dir / "run" / "run.json"));
   EXPECT_EQ(run["results"]["deformation_updates"], "colour");
   EXPECT_EQ(run["results"]["fallback_after_cycles"], 18);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "dynamics/DryHertz.hpp"
 
@@ -41,21 +42,65 @@ std::string format_duration(double seconds) {
   return fmt::format("{}h{:02}m", total / per_hour, (total % per_hour) / per_minute);
 }
 
-ProgressLine::ProgressLine(bool enabled, double T_end, double Delta0, double V0, std::FILE* stream)
-    : enabled_(enabled),
-      T_end_(T_end),
-      Delta0_(Delta0),
-      V0_(V0),
+StatusLine::StatusLine(bool enabled, std::FILE* stream)
+    : enabled_(enabled && stream != nullptr),
       stream_(stream),
       terminal_(stream != nullptr && isatty(fileno(stream)) == 1),
       start_(std::chrono::steady_clock::now()) {}
 
-ProgressLine::~ProgressLine() {
-  if (enabled_ && stream_ != nullptr && printed_ && terminal_) {
-    std::fputc('\n', stream_);
-    std::fflush(stream_);
-  }
+StatusLine::~StatusLine() {
+  if (enabled_) end_line();
 }
+
+double StatusLine::elapsed() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+void StatusLine::end_line() {
+  if (printed_ && terminal_) std::fputc('\n', stream_);
+  printed_ = false;
+  std::fflush(stream_);
+}
+
+void StatusLine::print(double elapsed, bool done) {
+  const std::string line = last_(elapsed, done);
+  if (terminal_) {
+    std::fprintf(stream_, "%s%s", kClearLine, line.c_str());
+  } else {
+    std::fprintf(stream_, "%s\n", line.c_str());
+  }
+  std::fflush(stream_);
+  last_print_ = elapsed;
+  pending_ = false;
+  printed_ = true;
+}
+
+void StatusLine::update(Text text) {
+  if (!enabled_) return;
+  last_ = std::move(text);
+  pending_ = true;
+  const double now = elapsed();
+  const double interval = terminal_ ? kTerminalInterval : kLogInterval;
+  if (last_print_ < 0.0 || now - last_print_ >= interval) print(now, false);
+}
+
+void StatusLine::note(const std::string& line) {
+  if (!enabled_) return;
+  if (printed_ && terminal_) std::fputs(kClearLine, stream_);
+  std::fprintf(stream_, "%s\n", line.c_str());
+  printed_ = false;
+  std::fflush(stream_);
+  last_print_ = -1.0;  // the state again at its next update
+}
+
+void StatusLine::finish() {
+  if (!enabled_) return;
+  if (last_ && (pending_ || (printed_ && terminal_))) print(elapsed(), true);
+  end_line();
+}
+
+ProgressLine::ProgressLine(bool enabled, double T_end, double Delta0, double V0, std::FILE* stream)
+    : T_end_(T_end), Delta0_(Delta0), V0_(V0), line_(enabled, stream) {}
 
 std::string ProgressLine::text(const StepRecord& r, double elapsed, bool done) const {
   if (done) {
@@ -73,38 +118,8 @@ std::string ProgressLine::text(const StepRecord& r, double elapsed, bool done) c
       approx, format_duration(remaining));
 }
 
-void ProgressLine::print(const StepRecord& record, double elapsed, bool done) {
-  const std::string line = text(record, elapsed, done);
-  if (terminal_) {
-    std::fprintf(stream_, "%s%s", kClearLine, line.c_str());
-  } else {
-    std::fprintf(stream_, "%s\n", line.c_str());
-  }
-  std::fflush(stream_);
-  last_print_ = elapsed;
-  pending_ = false;
-  printed_ = true;
-}
-
 void ProgressLine::update(const StepRecord& record) {
-  if (!enabled_ || stream_ == nullptr) return;
-  last_ = record;
-  pending_ = true;
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  const double interval = terminal_ ? kTerminalInterval : kLogInterval;
-  if (last_print_ < 0.0 || elapsed - last_print_ >= interval) print(record, elapsed, false);
-}
-
-void ProgressLine::finish() {
-  if (!enabled_ || stream_ == nullptr) return;
-  if (pending_ || (printed_ && terminal_)) {
-    print(last_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
-          true);
-  }
-  if (printed_ && terminal_) std::fputc('\n', stream_);
-  std::fflush(stream_);
-  printed_ = false;
+  line_.update([this, record](double elapsed, bool done) { return text(record, elapsed, done); });
 }
 
 }  // namespace ehlsim
