@@ -855,6 +855,13 @@ TEST(RollingCli, RefusesARunawayFullMultigridStart) {
   EXPECT_EQ(r.err, "ehlsim: error: solver.fmg_cycles = 1000000000: must be in [1, 200] (--set)\n");
 }
 
+TEST(RollingCli, RefusesAnEllipticityWhoseDryContactIsNotFinite) {
+  // D = 5e-324: the domain check said "must be < -inf".
+  const auto r = testing::ehlsim("rolling --quiet --set case.D=5e-324 --out /nonexistent/x");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: case.D = 5e-324: must be in [1e-295, 1e+295] (--set)\n");
+}
+
 TEST(RollingCli, HelpListsItsOwnKeys) {
   const auto r = testing::ehlsim("rolling --help");
   EXPECT_EQ(r.exit_code, 0);

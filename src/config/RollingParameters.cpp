@@ -18,6 +18,11 @@ namespace {
 /// would run for days; 200 is the most tried (docs/validation.md, "M = 10,
 /// L = 20": it did not help).
 constexpr int kMaxFmgCycles = 200;
+/// The smallest case.D (and the inverse of the largest): the dry Hertz
+/// ellipse that sizes the start and the domain check is finite from 1e-295
+/// to 1e295 (Rolling.EllipticHertzStaysFiniteAndMonotonicOverEveryD); at D =
+/// 5e-324 it reached infinity and the domain check said "must be < -inf".
+constexpr double kMinEllipticity = 1e-295;
 
 const RollingConfig kDefaults{};
 
@@ -29,7 +34,8 @@ std::vector<ParameterSpec> build_rolling_registry() {
   r.push_back(
       real("case.L", kDefaults.L, "", at_least(0), kUnbounded, "",
            "Moes lubricant parameter alpha E' U^(1/4); alpha_bar = (L / pi) (3 M / 2)^(1/3)"));
-  r.push_back(real("case.D", kDefaults.D, "", above(0), kUnbounded, "",
+  r.push_back(real("case.D", kDefaults.D, "", at_least(kMinEllipticity),
+                   at_most(1.0 / kMinEllipticity), "",
                    "ellipticity of the gap Rx / Ry (1: a ball; Rx along the rolling)"));
   // [physical]
   r.push_back(real("physical.Rx", kNoDefault, "none", above(0), kUnbounded, "m",
