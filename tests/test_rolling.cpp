@@ -801,8 +801,9 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "physical.u1=1 --set physical.u2=1 --set physical.reduced_modulus=2.2e11 --set "
       "physical.eta0=0.04 --set physical.alpha=2e-8",
       "physical.Ry = 1e+300: gives D = Rx / Ry = 0, which must be a finite number > 0");
-  // Beyond any contact, still a number: D = 1e300 reaches X = 7.607.
-  expect_refused("--set case.D=1e300", "grid.x_min = -4.5 (the default): must be < -7.607");
+  // Beyond any contact, still a number: D = 1e295, the largest allowed,
+  // reaches X = 7.586 (1e300 is out of range: RefusesAnEllipticity...).
+  expect_refused("--set case.D=1e295", "grid.x_min = -4.5 (the default): must be < -7.586");
   // The contacts of docs/validation.md (D = 0.25 to 4) fit the default
   // domain, and a rigid body, which has no dry contact, may take a small one.
   for (const char* D : {"0.25", "0.5", "2", "4"})
