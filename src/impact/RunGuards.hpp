@@ -89,9 +89,10 @@ inline constexpr int kInitialRateCycles = 5;
 /// A solve at T = 0 whose residual still fell this fast, and is below the
 /// residual it started from, ran out of cycles, and did not stall.  (M = 0.01
 /// on 33^2 overflows: its residual fell from far above its start to 4.6e27 in
-/// the last cycles on one machine and was not finite on another.)  Between the two measured kinds:
-/// the default case on 65^2 asked for solver.tolerance = 1e-14 fell by 0.64 per cycle when
-/// solver.max_cycles ended it (and reached 1e-14 with 200 cycles); of the
+/// the last cycles on one machine and was not finite on another.)  Between
+/// the two measured kinds: the default case on 65^2 asked for
+/// solver.tolerance = 1e-14 fell by 0.64 per cycle when solver.max_cycles
+/// ended it (and reached 1e-14 with 200 cycles); of the
 /// films with no solution, M = 10, L = 20 on 65^2 fell by 0.86 per cycle,
 /// M = 2, 3 and 10 at L = 20 on 129^2 not at all.
 inline constexpr double kStillConvergingRate = 0.75;
