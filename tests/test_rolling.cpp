@@ -13,7 +13,9 @@
 #include <utility>
 #include <vector>
 
+#include "config/ParameterSet.hpp"
 #include "config/RollingParameters.hpp"
+#include "impact/Scaling.hpp"
 #include "rolling/DryEllipticHertz.hpp"
 #include "rolling/FilmFormula.hpp"
 #include "rolling/RollingProblem.hpp"
@@ -483,6 +485,31 @@ TEST(Rolling, UnresolvedRigidFilmFailsWithAHint) {
   // size, 257^2, it converges: docs/validation.md.)
   const std::string message = failure_message(rigid_case(100, 129, 1.0));
   EXPECT_NE(message.find("use more points"), std::string::npos) << message;
+}
+
+TEST(Rolling, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
+  // lubricant.alpha = 2e-8 with ph* = 1 GPa: alpha_bar = 20 at p = 0, so L
+  // is Moes' L of alpha_bar 20 at M = 100, whatever case.L's default says.
+  const std::vector<std::string> roelands = {"lubricant.viscosity=roelands", "lubricant.eta0=0.05",
+                                             "lubricant.ph_star=1e9"};
+  std::vector<std::string> with_alpha = roelands;
+  with_alpha.push_back("lubricant.alpha=2e-8");
+  const RollingConfig c = load_rolling_config(std::nullopt, with_alpha);
+  EXPECT_NEAR(c.alpha_bar, 20.0, 1e-12);
+  EXPECT_NEAR(c.L, moes_L(c.lambda_bar, 20.0), 1e-12);
+  EXPECT_NEAR(c.lubricant.roelands_alpha(), 2e-8, 1e-22);
+  // z derived from case.L (neither z nor alpha given) keeps case.L.
+  EXPECT_EQ(load_rolling_config(std::nullopt, roelands).L, 10.0);
+  // Both is a contradiction.
+  with_alpha.push_back("case.L=0");
+  try {
+    (void)load_rolling_config(std::nullopt, with_alpha);
+    FAIL() << "case.L and lubricant.alpha were both taken";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "case.L = 0: cannot be given together with lubricant.alpha: the Roelands law's "
+              "pressure-viscosity coefficient sets L (give one of them) (--set)");
+  }
 }
 
 TEST(Rolling, CompressibleFilmIsThinnerInTheContact) {

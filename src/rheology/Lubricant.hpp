@@ -50,6 +50,13 @@ struct Lubricant {
     return (kDowsonHigginsonA_Pa + kDowsonHigginsonB * p) / (kDowsonHigginsonA_Pa + p);
   }
 
+  /// Roelands: the pressure-viscosity coefficient at p = 0 [1/Pa],
+  /// d ln(eta)/dp|0 = z (ln eta0 + 9.67) / p0 (the inverse of
+  /// roelands_z_from_alpha).
+  [[nodiscard]] double roelands_alpha() const {
+    return roelands_z * (std::log(eta0_Pa_s) + kRoelandsLnEtaInf) / kRoelandsP0_Pa;
+  }
+
   /// Roelands index z that gives the pressure-viscosity coefficient alpha [1/Pa]
   /// at p = 0: d ln(eta)/dp|0 = z (ln eta0 + 9.67)/p0 = alpha.
   [[nodiscard]] static double roelands_z_from_alpha(double alpha_per_Pa, double eta0_Pa_s);
