@@ -451,6 +451,11 @@ TEST(RegistryErrors, InconsistentCombinations) {
       "lubricant.ph_star = 1000000000: is used only by lubricant.viscosity = \"roelands\" and "
       "lubricant.density = \"dowson-higginson\" (the laws are \"barus\" and "
       "\"incompressible\") (--set)");
+  // A Roelands index that is not finite (ph* = 1e-300 Pa: the run diverged).
+  EXPECT_EQ(set_error({"lubricant.viscosity=roelands", "lubricant.eta0=0.04",
+                       "lubricant.ph_star=1e-300"}),
+            "lubricant.ph_star = 1e-300: gives a Roelands index z = alpha p0 / (ln(eta0) + 9.67) "
+            "that is not finite (alpha = 1.69127e+301 1/Pa) (--set)");
   // One cycle must end in reasonable time: a signal is acted on between cycles.
   EXPECT_EQ(set_error({"solver.pre_sweeps=2000000000"}),
             "solver.pre_sweeps = 2000000000: must be in [0, 20] (--set)");

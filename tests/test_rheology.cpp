@@ -81,6 +81,19 @@ TEST(Rheology, RoelandsHasBarusSlopeAtZero) {
   EXPECT_NEAR(log_slope_at_zero(l, 1e-4) / expected, 1.0, 1e-6);
 }
 
+TEST(Rheology, RoelandsKeepsItsSlopeWhenPOverP0IsTiny) {
+  // ph* = 1e-8 Pa with the z of alpha_bar = 10 (z ~ 4.6e16): p/p0 ~ 5e-17,
+  // and 1 + p/p0 rounds to 1.  The law must still have the slope alpha ph*
+  // = 10 at P = 0 and tend to lnterm (exp(10 P / lnterm) - 1): it was 0, an
+  // isoviscous film.
+  Lubricant l = roelands_oil();
+  l.ph_star_Pa = 1e-8;
+  l.roelands_z = Lubricant::roelands_z_from_alpha(10.0 / l.ph_star_Pa, kEta0);
+  const double lnterm = std::log(kEta0) + kRoelandsLnEtaInf;
+  EXPECT_NEAR(log_slope_at_zero(l, 1e-4) / 10.0, 1.0, 1e-6);
+  EXPECT_NEAR(l.log_eta_bar(1.0) / (lnterm * std::expm1(10.0 / lnterm)), 1.0, 1e-9);
+}
+
 TEST(Rheology, RoelandsBelowBarusAtHighPressure) {
   // z < 1 makes ln(eta) concave in p, so Roelands lies below the Barus law of
   // the same initial slope; at 1 GPa the gap is large (orders of magnitude).

@@ -255,7 +255,17 @@ double roelands_z(const Inputs& in, const Lubricant& lub, double alpha_bar,
   const double alpha =
       physical ? physical->alpha_per_Pa
                : in.optional_real("lubricant.alpha").value_or(alpha_bar / lub.ph_star_Pa);
-  return Lubricant::roelands_z_from_alpha(alpha, lub.eta0_Pa_s);
+  const double z = Lubricant::roelands_z_from_alpha(alpha, lub.eta0_Pa_s);
+  // ph* = 1e-300 Pa made z infinite, and the first cycles diverged.
+  if (!std::isfinite(z)) {
+    const std::string key = physical                    ? "physical.alpha"
+                            : in.has("lubricant.alpha") ? "lubricant.alpha"
+                                                        : "lubricant.ph_star";
+    in.fail(key, fmt::format("gives a Roelands index z = alpha p0 / (ln(eta0) + {}) that is "
+                             "not finite (alpha = {:g} 1/Pa)",
+                             kRoelandsLnEtaInf, alpha));
+  }
+  return z;
 }
 
 Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,

@@ -39,8 +39,11 @@ struct Lubricant {
   [[nodiscard]] double log_eta_bar(double P) const {
     const double Pc = std::max(P, 0.0);
     if (viscosity == ViscosityModel::Barus) return alpha_bar * Pc;
+    // (1 + x)^z - 1 as expm1(z log1p(x)): with pow, 1 + x rounded to 1 for
+    // x below 1e-16, and a law of tiny p/p0 and huge z (ph* = 1e-8 Pa with
+    // the z of L = 10) became isoviscous instead of Barus' exp(alpha p).
     return (std::log(eta0_Pa_s) + kRoelandsLnEtaInf) *
-           (std::pow(1.0 + Pc * ph_star_Pa / kRoelandsP0_Pa, roelands_z) - 1.0);
+           std::expm1(roelands_z * std::log1p(Pc * ph_star_Pa / kRoelandsP0_Pa));
   }
 
   /// rho/rho0 at dimensionless pressure P (P < 0 counts as 0).
