@@ -41,7 +41,8 @@ struct Lubricant {
     if (viscosity == ViscosityModel::Barus) return alpha_bar * Pc;
     // (1 + x)^z - 1 as expm1(z log1p(x)): with pow, 1 + x rounded to 1 for
     // x below 1e-16, and a law of tiny p/p0 and huge z (ph* = 1e-8 Pa with
-    // the z of L = 10) became isoviscous instead of Barus' exp(alpha p).
+    // the z of L = 10) became isoviscous instead of its limit
+    // (ln eta0 + 9.67) (exp(alpha p / (ln eta0 + 9.67)) - 1).
     return (std::log(eta0_Pa_s) + kRoelandsLnEtaInf) *
            std::expm1(roelands_z * std::log1p(Pc * ph_star_Pa / kRoelandsP0_Pa));
   }
