@@ -54,14 +54,6 @@ std::string cycle_text(const RollingCycle& c, double elapsed, bool done) {
                      done ? "done in " : "", format_duration(elapsed));
 }
 
-/// Why the first run stopped, when the solve starts again with the other
-/// deformation update (RollingConfig::fallback_update).
-std::string fallback_text(const RollingConfig& c, const std::string& why) {
-  return fmt::format(
-      "{}; solving again from the start with the deformation updated {}", why,
-      c.relaxation.deformation_each_colour ? "once per sweep" : "before each colour");
-}
-
 void print_rolling_summary(const RollingConfig& c, const RollingResult& r, double wall,
                            const std::string& out_dir) {
   const std::string fallback =
@@ -71,8 +63,8 @@ void print_rolling_summary(const RollingConfig& c, const RollingResult& r, doubl
   print_out(
       "Hc = {:.6g} ({:.5g} Moes; NVM formula {:.5g}), Hm = {:.6g} at X = {:.4g}, "
       "P_max = {:.5g}; {} cycles{}, {:.2f} s; output in {}\n",
-      r.Hc, hertz_to_moes_film(r.Hc, c.M), nvm_central_film(c.M, c.L, c.D), r.Hm, r.X_Hm, r.P_max,
-      r.cycles, fallback, wall, out_dir);
+      r.Hc, hertz_to_moes_film(r.Hc, c.M), r.Hc_moes_nvm, r.Hm, r.X_Hm, r.P_max, r.cycles, fallback,
+      wall, out_dir);
   cli::print_warnings(r.warnings);
 }
 }  // namespace
@@ -96,7 +88,7 @@ int run_rolling(const RollingOptions& options) {
           if (InterruptGuard::received() != 0) throw RunInterrupted(c.cycle, 0.0);
           status.update([c](double elapsed, bool done) { return cycle_text(c, elapsed, done); });
         },
-        [&](const std::string& why) { status.note(fallback_text(config, why)); });
+        [&](const std::string& line) { status.note(line); });
     status.finish();
   } catch (const RollingFailure& e) {
     cli::print_error(e.what());

@@ -45,7 +45,6 @@ void write_profiles(const std::filesystem::path& dir, const RollingResult& r) {
 }  // namespace
 
 nlohmann::json rolling_results_json(const RollingConfig& c, const RollingResult& r) {
-  const double hc_formula = nvm_central_film(c.M, c.L, c.D);
   return {{"Hc", r.Hc},
           {"X_Hc", 0.0},
           {"Y_Hc", 0.0},
@@ -54,8 +53,8 @@ nlohmann::json rolling_results_json(const RollingConfig& c, const RollingResult&
           {"Y_Hm", r.Y_Hm},
           {"Hc_moes", hertz_to_moes_film(r.Hc, c.M)},
           {"Hm_moes", hertz_to_moes_film(r.Hm, c.M)},
-          {"Hc_moes_nvm", hc_formula},
-          {"Hc_deviation_from_nvm", hertz_to_moes_film(r.Hc, c.M) / hc_formula - 1.0},
+          {"Hc_moes_nvm", r.Hc_moes_nvm},
+          {"Hc_deviation_from_nvm", r.nvm_deviation},
           {"H0", r.H0},
           {"P_max", r.P_max},
           {"X_P_max", r.X_P_max},

@@ -478,9 +478,10 @@ RollingResult RollingProblem::Impl::result() const {
   r.edge_load = edge_load_share(grid, r.P);
   if (std::string note = domain_note(r.edge_load); !note.empty())
     r.warnings.push_back(std::move(note));
+  r.Hc_moes_nvm = nvm_central_film(cfg.M, cfg.L, cfg.D);
+  r.nvm_deviation = hertz_to_moes_film(r.Hc, cfg.M) / r.Hc_moes_nvm - 1.0;
   // A film that depends on the domain is far from the formula for that reason.
-  const double formula = nvm_central_film(cfg.M, cfg.L, cfg.D);
-  if (std::string note = formula_note(cfg, hertz_to_moes_film(r.Hc, cfg.M) / formula - 1.0);
+  if (std::string note = formula_note(cfg, r.nvm_deviation);
       cfg.elastic && r.warnings.empty() && !note.empty())
     r.warnings.push_back(std::move(note));
   return r;
@@ -580,7 +581,9 @@ RollingResult RollingProblem::solve_with_other_update(const std::string& why,
   other.relaxation.deformation_each_colour = each_colour;
   impl_.reset();  // one hierarchy in memory at a time
   impl_ = std::make_unique<Impl>(other);
-  if (on_fallback) on_fallback(why);
+  if (on_fallback)
+    on_fallback(fmt::format("{}; solving again from the start with the deformation updated {}", why,
+                            each_colour ? "before each colour" : "once per sweep"));
   RollingResult result;
   try {
     result = solve(monitor);

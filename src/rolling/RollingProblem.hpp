@@ -35,7 +35,10 @@ struct RollingCycle {
 struct RollingResult {
   Grid2D grid;
   Field P, H;
-  double Hc = 0.0;                                   ///< H at X = Y = 0
+  double Hc = 0.0;  ///< H at X = Y = 0
+  /// The Nijenbanning-Venner-Moes central film of the case (Moes units),
+  /// and Hc's relative deviation from it.
+  double Hc_moes_nvm = 0.0, nvm_deviation = 0.0;
   double Hm = 0.0, X_Hm = 0.0, Y_Hm = 0.0;           ///< minimum film and its position
   double P_max = 0.0, X_P_max = 0.0, Y_P_max = 0.0;  ///< maximum pressure and its position
   double H0 = 0.0;
@@ -67,9 +70,9 @@ class RollingProblem {
   RollingProblem& operator=(const RollingProblem&) = delete;
 
   using CycleMonitor = std::function<void(const RollingCycle&)>;
-  /// Told why the first run failed when the solve starts again with the
-  /// other deformation update (RollingConfig::fallback_update).
-  using FallbackMonitor = std::function<void(const std::string& why)>;
+  /// Told, in one line, why the first run failed and that the solve starts
+  /// again with the other deformation update (RollingConfig::fallback_update).
+  using FallbackMonitor = std::function<void(const std::string& line)>;
   /// Solves to solver.tolerance; throws RollingFailure when it cannot.  An
   /// elastic contact that runs out of cycles with one deformation update is
   /// solved again from its start with the other (RollingConfig::fallback_update).
