@@ -653,11 +653,8 @@ int run_study(const StudyOptions& options) {
   if (std::error_code ec; (void)fs::status(out, ec), ec == std::errc::too_many_symbolic_link_levels)
     throw link_loop_error(out);
   // One study per directory: a second one would truncate the logs of the first.
-  const PathLock lock(resolve_run_directory(out), out);
-  if (std::error_code ec; fs::exists(out, ec) && !fs::is_directory(out, ec)) {
-    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", out.string()),
-                      "--out");
-  }
+  const PathLock lock(resolve_run_directory(refuse_non_directory(out)), out);
+  (void)refuse_non_directory(out);  // again under the lock
   fs::create_directories(out / "logs");
   print_out("ehlsim study -> {}: M = {} (L = {:g}) on {}^2, rolling M = {} on {}^2, {} at a time\n",
             out.string(), fmt::join(kStudyM, ", "), kStudyL, options.grid,

@@ -130,8 +130,14 @@ TEST(Cli, AnOutThatIsOrLiesInAFileIsBadInput) {
   expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(in_file)), below);
   expect_bad_input(ehlsim("study --grid 33 --no-plots --out " + quote(file.string())), is_file);
   expect_bad_input(ehlsim("rolling --set grid.points=33 --out " + quote(file.string())), is_file);
+  // ... also where the lock file beside it cannot be made (as beside a file in
+  // an unwritable directory): the file is named before the lock is tried.
+  fs::create_directory(dir / ".afile.lock");
+  for (const std::string command : {"impact --set grid.points=33", "rolling --set grid.points=33",
+                                    "study --grid 33 --no-plots"})
+    expect_bad_input(ehlsim(command + " --out " + quote(file.string())), is_file);
   EXPECT_EQ(read_file(file), "x");
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 2);
 }
 
 TEST(Cli, UnknownCommandIsNamed) {

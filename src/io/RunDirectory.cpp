@@ -358,13 +358,19 @@ bool holds_path(const fs::path& dir, const fs::path& inside) {
   return std::mismatch(outer.begin(), outer.end(), inner.begin(), inner.end()).first == outer.end();
 }
 
+const fs::path& refuse_non_directory(const fs::path& shown) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(shown, ec);
+  if (fs::exists(status) && !fs::is_directory(status)) {
+    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", shown.string()),
+                      "--out");
+  }
+  return shown;
+}
+
 void check_replaceable_run_directory(const fs::path& dir) {
   std::error_code ec;
-  const fs::file_status status = fs::status(dir, ec);
-  if (!fs::exists(status)) return;
-  if (!fs::is_directory(status)) {
-    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", dir.string()));
-  }
+  if (!fs::exists(fs::status(refuse_non_directory(dir), ec))) return;
   check_writable(dir);
   if (fs::is_empty(dir, ec)) return;
   const char* policy =
@@ -447,7 +453,7 @@ fs::path resolve_run_directory(const fs::path& target) {
 }
 
 RunDirectory::RunDirectory(const fs::path& target)
-    : target_(without_trailing_separator(target)),
+    : target_(refuse_non_directory(without_trailing_separator(target))),
       directory_(follow_final_link(target_)),
       resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
@@ -459,19 +465,16 @@ RunDirectory::RunDirectory(const fs::path& target)
 }
 
 RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
-    : target_(without_trailing_separator(target)),
+    : target_(refuse_non_directory(without_trailing_separator(target))),
       directory_(follow_final_link(target_)),
       resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))),
       amend_(true),
       replaced_(amend.replaced) {
+  // Again under the lock: the check before it raced with other processes.
   std::error_code ec;
-  const fs::file_status status = fs::status(target_, ec);
-  if (fs::exists(status) && !fs::is_directory(status)) {
-    throw ConfigError(fmt::format("--out '{}' exists and is not a directory", target_.string()));
-  }
-  if (fs::exists(status)) check_writable(target_);
+  if (fs::exists(fs::status(refuse_non_directory(target_), ec))) check_writable(target_);
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);

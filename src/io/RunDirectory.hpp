@@ -136,6 +136,12 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 /// links (in its final name or in a parent).
 [[nodiscard]] ConfigError link_loop_error(const std::filesystem::path& shown);
 
+/// `shown` itself, after a ConfigError (--out) if it exists and is not a
+/// directory.  Checked before the lock: the lock file beside a file the user
+/// cannot write next to (`--out /etc/hostname`) failed to be created first,
+/// and the run ended with exit 1 for what is bad input.
+const std::filesystem::path& refuse_non_directory(const std::filesystem::path& shown);
+
 /// Whether `inside` is the directory `dir` or lies below it (both existing;
 /// symbolic links resolved).  False when either cannot be resolved.
 [[nodiscard]] bool holds_path(const std::filesystem::path& dir,
