@@ -39,6 +39,7 @@
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
+#include "impact/RunGuards.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
@@ -352,8 +353,13 @@ int run_impact(const ImpactOptions& options) {
   } catch (const std::exception& e) {
     if (kept.step == 0) throw;
     run_dir.reset();
-    print_error(fmt::format("{}; resume from the checkpoint of step {} with: {}", e.what(),
-                            kept.step, resume_command(options, kept.path)));
+    // A failure of the solution repeats, bit for bit, from the checkpoint
+    // unless a setting changes; one of the disk does not.
+    const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
+    const std::string change =
+        repeats ? fmt::format("with a change a restart allows ({}), ", kRestartMayChange) : "";
+    print_error(fmt::format("{}; {}resume from the checkpoint of step {} with: {}", e.what(),
+                            change, kept.step, resume_command(options, kept.path)));
     return kExitFailure;
   }
   return kExitOk;

@@ -611,13 +611,16 @@ TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_NE(r.err.find("no lift-off after 5 steps"), std::string::npos) << r.err;
   const fs::path kept = work / "run.checkpoint.nc";
-  EXPECT_NE(r.err.find("; resume from the checkpoint of step 4 with: "), std::string::npos)
+  // The same command would fail the same way: the line says what may change.
+  EXPECT_NE(r.err.find("; with a change a restart allows (solver.*, output.*, spike.*, time.T_end "
+                       "and time.max_steps), resume from the checkpoint of step 4 with: "),
+            std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("--restart " + kept.string()), std::string::npos) << r.err;
   EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 4);
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
-  // Resumed as the message says, the run fails again at step 5, before its
+  // Resumed without a change, the run fails again at step 5, before its
   // next checkpoint: the one it started from is still there, and named.
   const Result again = run_into(run,
                                 "--set output.checkpoint_every=2 --set time.max_steps=5 "
@@ -625,11 +628,19 @@ TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
                                     quote(kept.string()));
   EXPECT_EQ(again.exit_code, 1);
   EXPECT_NE(again.err.find("no lift-off after 5 steps"), std::string::npos) << again.err;
-  EXPECT_NE(again.err.find("; resume from the checkpoint of step 4 with: "), std::string::npos)
+  EXPECT_NE(again.err.find("resume from the checkpoint of step 4 with: "), std::string::npos)
       << again.err;
   EXPECT_NE(again.err.find("--restart " + kept.string()), std::string::npos) << again.err;
   EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, 4);
   EXPECT_EQ(contents(run), before);
+  // With time.max_steps raised it goes on from there, to the new cap.
+  const Result raised = run_into(run,
+                                 "--set output.checkpoint_every=2 --set time.max_steps=7 "
+                                 "--restart " +
+                                     quote(kept.string()));
+  EXPECT_NE(raised.err.find("no lift-off after 7 steps"), std::string::npos) << raised.err;
+  EXPECT_NE(raised.err.find("resume from the checkpoint of step 6 with: "), std::string::npos)
+      << raised.err;
 }
 
 /// The rows of timeseries.csv (without the header).

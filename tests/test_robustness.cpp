@@ -169,6 +169,24 @@ TEST(RunGuards, AFilmAtTZeroIsStillConvergingOnlyBelowItsStart) {
   EXPECT_NE(stalled.find("did not converge"), std::string::npos) << stalled;
 }
 
+TEST(RunGuards, OnlyASteadyFallOfFiniteResidualsIsStillConverging) {
+  // The default case on 65^2 asked for 1e-14: a steady 0.64 per cycle.
+  std::vector<double> steady{1.0};
+  for (int c = 0; c < 8; ++c) steady.push_back(0.64 * steady.back());
+  EXPECT_NEAR(steady_fall_rate(steady), 0.64, 1e-12);
+  // Fewer cycles than kInitialRateCycles (solver.max_cycles = 2): all of them.
+  EXPECT_NEAR(steady_fall_rate({1.0, 0.5, 0.25}), 0.5, 1e-15);
+  EXPECT_EQ(steady_fall_rate({1.0}), 1.0);
+  // M = 4, L = 10 on 129^2 cycles between 8e-5 and an overflow: measured from
+  // an inf five cycles back the mean fall was 0 ("falling by 0.00 per cycle").
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(steady_fall_rate({4.2e-3, 1.7e27, inf, 9.3e-5, 8.6e-5, 7.9e-5, 7.9e-5}), 1.0);
+  // M = 1, L = 10 on 65^2: from 2.4e61 down to 2.0e60, then inf to the end.
+  EXPECT_EQ(steady_fall_rate({1.0e84, inf, 2.4e61, 2.0e60, inf, inf, inf, inf, 7.7e30}), 1.0);
+  // One cycle of the last five that did not lower it: no steady fall.
+  EXPECT_EQ(steady_fall_rate({1.0, 0.5, 0.25, 0.3, 0.1, 0.05, 0.02}), 1.0);
+}
+
 TEST(RunGuards, AtRestWhenTooLittleEnergyIsLeftForARebound) {
   const ImpactConfig c;
   const RunBounds b = run_bounds(c, 0.05, 0.0);
@@ -226,6 +244,11 @@ TEST(CaseMap, ProbeSmallMOnA33Grid) {
   const Result overflow = map_run(dir, 33, "--set case.M=0.01");
   expect_failed_run(dir, overflow, "did not converge (residual ");
   EXPECT_EQ(overflow.err.find("nan"), std::string::npos) << overflow.err;
+  // Its residual overflowing in the last cycles, M = 1, L = 10 on 65^2 was
+  // told to raise solver.max_cycles ("falling by 0.00 per cycle").
+  const Result viscous = map_run(dir, 65, "--set case.M=1 --set case.L=10");
+  expect_failed_run(dir, viscous, "did not converge (residual ");
+  EXPECT_NE(viscous.err.find("start further away"), std::string::npos) << viscous.err;
 }
 
 TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {
@@ -244,6 +267,10 @@ TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {
   EXPECT_NE(tight.err.find("raise solver.max_cycles or solver.tolerance\n"), std::string::npos)
       << tight.err;
   EXPECT_EQ(tight.err.find("too viscous"), std::string::npos) << tight.err;
+  // ... nor is a film given too few cycles to judge its fall (it was said to
+  // be too viscous).
+  const Result few = map_run(dir, 65, "--set case.M=20 --set case.L=20 --set solver.max_cycles=2");
+  expect_failed_run(dir, few, "was still converging when solver.max_cycles = 2 ran out");
   const Result ok = map_run(dir, 65, "--set case.M=20 --set case.L=20 --set time.T_end=0.05");
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   EXPECT_NEAR(results_of(dir).at("initial_force").get<double>(), 0.13, 0.01);

@@ -514,11 +514,9 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
   hierarchy.set_omega_flow_dominated(cfg.relaxation.omega_flow_dominated);
   fine.update_coefficients(solver->solution());
   InitialSolve result{fine.force(solver->solution()), solver->residual_norm()};
-  const int cycles = static_cast<int>(residuals.size());
-  if (cycles > 0) result.first_residual = residuals.front();
-  if (cycles > kInitialRateCycles)
-    result.rate = std::pow(result.residual / residuals[cycles - kInitialRateCycles],
-                           1.0 / kInitialRateCycles);
+  if (!residuals.empty()) result.first_residual = residuals.front();
+  residuals.push_back(result.residual);
+  result.rate = steady_fall_rate(residuals);
   return result;
 }
 

@@ -138,6 +138,17 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
   }
 }
 
+double steady_fall_rate(const std::vector<double>& residuals) {
+  const std::size_t n = residuals.size();
+  if (n < 2) return 1.0;
+  const std::size_t cycles = std::min<std::size_t>(n - 1, kInitialRateCycles);
+  const std::size_t first = n - 1 - cycles;
+  for (std::size_t i = first; i + 1 < n; ++i) {
+    if (!std::isfinite(residuals[i]) || !(residuals[i + 1] < residuals[i])) return 1.0;
+  }
+  return std::pow(residuals.back() / residuals[first], 1.0 / static_cast<double>(cycles));
+}
+
 void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
   const double force = s.force, residual = s.residual;
   if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;

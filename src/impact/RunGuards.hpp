@@ -78,8 +78,8 @@ inline constexpr double kInitialToleranceFactor = 1e-2;
 struct InitialSolve {
   double force = 0.0;
   double residual = 0.0;
-  /// Factor per cycle by which the residual fell over its last
-  /// kInitialRateCycles cycles (1 with fewer cycles).
+  /// Factor per cycle by which the residual fell steadily over its last
+  /// cycles (steady_fall_rate).
   double rate = 1.0;
   /// The residual of the full multigrid start, before the first cycle.
   double first_residual = std::numeric_limits<double>::infinity();
@@ -96,6 +96,16 @@ inline constexpr int kInitialRateCycles = 5;
 /// films with no solution, M = 10, L = 20 on 65^2 fell by 0.86 per cycle,
 /// M = 2, 3 and 10 at L = 20 on 129^2 not at all.
 inline constexpr double kStillConvergingRate = 0.75;
+
+/// InitialSolve::rate of the residuals of a solve at T = 0, its last one
+/// after its last cycle: the factor per cycle over the last
+/// kInitialRateCycles cycles (all of them if fewer), or 1 (not falling)
+/// unless each of them lowered a finite residual.  A history with an overflow
+/// in it is no fall: M = 4, L = 10 on 129^2 cycles between 8e-5 and inf, and
+/// the mean from an inf was 0.  With fewer cycles than kInitialRateCycles
+/// (solver.max_cycles = 2) a film that has a solution (M = 20, L = 20 on 65^2)
+/// was said to be too viscous for the start.
+[[nodiscard]] double steady_fall_rate(const std::vector<double>& residuals);
 
 /// Throws RunFailure when the film pressure at T = 0 is not a solution: not
 /// finite, or its residual above solver.tolerance.  The reason is the

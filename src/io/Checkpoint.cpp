@@ -454,10 +454,8 @@ void check_restart_compatible(const nlohmann::json& checkpoint_parameters,
       if (value_now != value_saved) {
         throw ConfigError(
             fmt::format("{} = {}, but checkpoint '{}' was written with {} (a restart continues "
-                        "the same case: only solver.*, output.*, spike.*, time.T_end and "
-                        "time.max_steps may "
-                        "change, solver.face_mean excepted)",
-                        dotted(it.key()), value_now, file, value_saved),
+                        "the same case: only {} may change, solver.face_mean excepted)",
+                        dotted(it.key()), value_now, file, value_saved, kRestartMayChange),
             dotted(it.key()));
       }
     }

@@ -42,10 +42,14 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 /// Throws PreReadInterrupted after a signal during that read.
 [[nodiscard]] Checkpoint read_untrusted_checkpoint(const std::filesystem::path& path);
 
+/// What a restart may change, in words (check_restart_compatible).
+inline constexpr const char* kRestartMayChange =
+    "solver.*, output.*, spike.*, time.T_end and time.max_steps";
+
 /// A restart continues the same case: every effective parameter must be the
 /// checkpoint's, except those of the solver (not solver.face_mean, which
-/// changes the discrete problem), the output, the spike analysis and
-/// time.T_end.  Throws ConfigError naming the first key that differs, e.g.
+/// changes the discrete problem), the output, the spike analysis,
+/// time.T_end and time.max_steps.  Throws ConfigError naming the first key that differs, e.g.
 /// "grid.points = 257, but checkpoint 'c.nc' was written with 513 (...)".
 void check_restart_compatible(const nlohmann::json& checkpoint_parameters,
                               const nlohmann::json& parameters, const std::string& file);
