@@ -446,6 +446,20 @@ TEST(DomainEdges, ARunWhoseSqueezeFilmReachesTheEdgesSaysSoAndItsResultMoves) {
   EXPECT_EQ(results_of(dir).at("warnings").size(), 1u);
 }
 
+/// The shortest interval `dt` of `run_dir`/convergence.csv.
+double shortest_interval(const fs::path& run_dir, double dT) {
+  // convergence.csv: step,T,dt,attempt,damping,cycle,residual
+  std::istringstream csv(read_file(run_dir / "convergence.csv"));
+  std::string line;
+  std::getline(csv, line);
+  double shortest = dT;
+  while (std::getline(csv, line)) {
+    const std::size_t first = line.find(','), second = line.find(',', first + 1);
+    shortest = std::min(shortest, std::stod(line.substr(second + 1)));
+  }
+  return shortest;
+}
+
 TEST(HalvedSteps, AQuarterThatWouldEndTheRunIsHalvedFurther) {
   // M = 100, L = 40 on 129^2: the step to T = 3.914 (the pocket's collapse)
   // converged in none of its quarters (residual 1.8e-3, beyond the 100 times
@@ -457,17 +471,21 @@ TEST(HalvedSteps, AQuarterThatWouldEndTheRunIsHalvedFurther) {
       expect_lift_off_with_every_step_converged(dir, map_run(dir, 129, "--set case.L=40"));
   ASSERT_FALSE(res.empty());
   const double dT = 3.0 / 128.0;
-  // convergence.csv: step,T,dt,attempt,damping,cycle,residual
-  std::istringstream csv(read_file(dir / "run" / "convergence.csv"));
-  std::string line;
-  std::getline(csv, line);
-  double shortest = dT;
-  while (std::getline(csv, line)) {
-    const std::size_t first = line.find(','), second = line.find(',', first + 1);
-    shortest = std::min(shortest, std::stod(line.substr(second + 1)));
-  }
+  const double shortest = shortest_interval(dir / "run", dT);
   EXPECT_LT(shortest, 0.25 * dT * (1.0 - 1e-9));
   EXPECT_GE(shortest, dT / 32.0 * (1.0 - 1e-9));
+}
+
+TEST(HalvedSteps, AQuarterAboveTheToleranceIsHalvedOnceMore) {
+  // M = 100, L = 20 on 257^2 kept the step to T = 4.1016 (the pocket's
+  // collapse) at 5.1e-5, five times solver.tolerance, when halving stopped at
+  // quarters (unconverged_steps 1); with eighths every step converges.
+  TempDir dir;
+  const nlohmann::json res =
+      expect_lift_off_with_every_step_converged(dir, map_run(dir, 257, "--set case.L=20"));
+  ASSERT_FALSE(res.empty());
+  const double dT = 3.0 / 256.0;
+  EXPECT_NEAR(shortest_interval(dir / "run", dT), dT / 8.0, 1e-9 * dT);
 }
 
 TEST(HalvedSteps, TheImpulseIsTheMomentumTheBallGainedWhenAWholeIntervalIsKept) {
