@@ -446,10 +446,17 @@ TEST(DomainEdges, ARunWhoseSqueezeFilmReachesTheEdgesSaysSoAndItsResultMoves) {
   EXPECT_EQ(results_of(dir).at("warnings").size(), 1u);
 }
 
-/// The shortest interval `dt` of `run_dir`/convergence.csv.
-double shortest_interval(const fs::path& run_dir, double dT) {
+/// The shortest interval of the default case on `points`^2 with `options`,
+/// as a fraction of its time step, after checking that it lifts off with
+/// every step converged (-1 if not).
+double shortest_interval_of_converged_run(int points, const std::string& options) {
+  TempDir dir;
+  const nlohmann::json res =
+      expect_lift_off_with_every_step_converged(dir, map_run(dir, points, options));
+  if (res.empty()) return -1.0;
+  const double dT = 3.0 / (points - 1);
   // convergence.csv: step,T,dt,attempt,damping,cycle,residual
-  std::istringstream csv(read_file(run_dir / "convergence.csv"));
+  std::istringstream csv(read_file(dir / "run" / "convergence.csv"));
   std::string line;
   std::getline(csv, line);
   double shortest = dT;
@@ -457,7 +464,7 @@ double shortest_interval(const fs::path& run_dir, double dT) {
     const std::size_t first = line.find(','), second = line.find(',', first + 1);
     shortest = std::min(shortest, std::stod(line.substr(second + 1)));
   }
-  return shortest;
+  return shortest / dT;
 }
 
 TEST(HalvedSteps, AQuarterThatWouldEndTheRunIsHalvedFurther) {
@@ -466,26 +473,16 @@ TEST(HalvedSteps, AQuarterThatWouldEndTheRunIsHalvedFurther) {
   // solver.tolerance a run keeps) and ended the run with exit 1.  Its
   // quarters are now halved further (down to dT / 32 at most), and every
   // step converges.
-  TempDir dir;
-  const nlohmann::json res =
-      expect_lift_off_with_every_step_converged(dir, map_run(dir, 129, "--set case.L=40"));
-  ASSERT_FALSE(res.empty());
-  const double dT = 3.0 / 128.0;
-  const double shortest = shortest_interval(dir / "run", dT);
-  EXPECT_LT(shortest, 0.25 * dT * (1.0 - 1e-9));
-  EXPECT_GE(shortest, dT / 32.0 * (1.0 - 1e-9));
+  const double shortest = shortest_interval_of_converged_run(129, "--set case.L=40");
+  EXPECT_LT(shortest, 0.25 * (1.0 - 1e-9));
+  EXPECT_GE(shortest, 1.0 / 32.0 * (1.0 - 1e-9));
 }
 
 TEST(HalvedSteps, AQuarterAboveTheToleranceIsHalvedOnceMore) {
   // M = 100, L = 20 on 257^2 kept the step to T = 4.1016 (the pocket's
   // collapse) at 5.1e-5, five times solver.tolerance, when halving stopped at
   // quarters (unconverged_steps 1); with eighths every step converges.
-  TempDir dir;
-  const nlohmann::json res =
-      expect_lift_off_with_every_step_converged(dir, map_run(dir, 257, "--set case.L=20"));
-  ASSERT_FALSE(res.empty());
-  const double dT = 3.0 / 256.0;
-  EXPECT_NEAR(shortest_interval(dir / "run", dT), dT / 8.0, 1e-9 * dT);
+  EXPECT_NEAR(shortest_interval_of_converged_run(257, "--set case.L=20"), 1.0 / 8.0, 1e-9);
 }
 
 TEST(HalvedSteps, TheImpulseIsTheMomentumTheBallGainedWhenAWholeIntervalIsKept) {
