@@ -367,6 +367,21 @@ TEST(CaseMap, RigidViscousBallComesToRest) {
   EXPECT_LT(res.at("impulse").get<double>(), 1.01);
 }
 
+TEST(CaseMap, ARigidBallInAPiezoviscousFilmKeepsNoStepAboveTheTolerance) {
+  // Closing in on a rigid flat through a Barus film, the pressure grows
+  // without bound (p_center 0.11, 0.22, 0.36 at T = 0.47, 0.56, 0.59 on
+  // 129^2).  Steps no attempt converged were kept within 100 times the
+  // tolerance: 19 of 43 to T = 1 on 129^2, exit 0, p_max between 0.1 and
+  // 0.38.  Now the run ends there, at the same Delta on 65^2 and 129^2.
+  TempDir dir;
+  const Result r = map_run(dir, 65,
+                           "--set case.M=37.77 --set case.L=11 --set time.Delta0=0.631 "
+                           "--set time.V0=0.481 --set body.elastic=false");
+  expect_failed_run(dir, r, "time step 13 (T = 0.60938): no attempt converged (residual ");
+  EXPECT_NE(r.err.find("; Delta = 0.3444, dDelta/dT = -0.45"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("a rigid ball in a piezoviscous film"), std::string::npos) << r.err;
+}
+
 TEST(CaseMap, StartingFurtherAwayResolvesTheViscousStart) {
   // The hint of ProbeSmallMOnA33Grid: the same case from Delta0 = 2 lifts off.
   TempDir dir;
