@@ -335,6 +335,23 @@ TEST(RegistryErrors, OutOfRange) {
             "solver.max_cycles = 10000000000: is too large (must fit in a 32-bit integer) (--set)");
 }
 
+TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
+  // TOML reads 1e-400 as 0, and the message echoed the 0 ("case.M = 0:
+  // must be > 0"): a value the user never wrote.
+  const std::string too_small =
+      ": is too small for a double, which would read it as 0 (the smallest positive double is "
+      "4.94066e-324)";
+  EXPECT_EQ(set_error({"case.M=1e-400"}), "case.M = 1e-400" + too_small + " (--set)");
+  EXPECT_EQ(set_error({"case.L=-2.5E-999"}), "case.L = -2.5E-999" + too_small + " (--set)");
+  EXPECT_EQ(set_error({"case.L=0e7"}), "");  // a zero written as one
+  TempDir dir;
+  const fs::path file =
+      write_file(dir / "tiny.toml", "[time]\nT_end = 1.0 # a run\n[output]\nsnapshot_times = "
+                                    "[0.5, 1e-400]\n");
+  EXPECT_EQ(config_error(file, {}), "output.snapshot_times = 1e-400" + too_small + " (" +
+                                        file.string() + ":4:24)");
+}
+
 TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
   for (const char* bad : {"100", "5", "8193", "0", "-257"}) {
     EXPECT_EQ(set_error({std::string("grid.points=") + bad}),

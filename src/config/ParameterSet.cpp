@@ -13,8 +13,10 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <string_view>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 namespace ehlsim {
 
@@ -413,14 +415,68 @@ std::string one_line(std::string_view text) {
   return out;
 }
 
+/// Whether the TOML float `node`, written as `literal`, names a nonzero number
+/// that was read as 0: "1e-400" gave "case.M = 0: must be > 0".
+bool underflowed(const toml::node& node, std::string_view literal) {
+  const auto* f = node.as_floating_point();
+  if (f == nullptr || f->get() != 0.0) return false;
+  const std::string_view mantissa = literal.substr(0, literal.find_first_of("eE"));
+  return mantissa.find_first_of("123456789") != std::string_view::npos;
+}
+
+[[noreturn]] void fail_underflow(const std::string& key, std::string_view literal,
+                                 const std::string& origin) {
+  fail_value(key, std::string(literal),
+             fmt::format("is too small for a double, which would read it as 0 (the smallest "
+                         "positive double is {:g})",
+                         std::numeric_limits<double>::denorm_min()),
+             origin);
+}
+
+/// The literal of `node` in the config file whose lines are `lines`.
+std::string_view literal_at(const toml::node& node, const std::vector<std::string_view>& lines) {
+  const toml::source_position at = node.source().begin;
+  if (at.line == 0 || at.line > lines.size()) return {};
+  const std::string_view line = lines[at.line - 1];
+  const std::size_t begin = std::min<std::size_t>(at.column - 1, line.size());
+  const std::size_t end = line.find_first_of(" \t,]}#\r", begin);
+  return line.substr(begin, end == std::string_view::npos ? line.size() - begin : end - begin);
+}
+
+/// Throws for the first float of `node` (a table, an array or a value, named
+/// `key`) that underflowed to 0.
+void refuse_underflows(const toml::node& node, const std::string& key,
+                       const std::vector<std::string_view>& lines, std::string_view file) {
+  if (const auto* table = node.as_table()) {
+    for (auto&& [name, child] : *table) {
+      const std::string child_key =
+          key.empty() ? std::string(name.str()) : key + "." + std::string(name.str());
+      refuse_underflows(child, child_key, lines, file);
+    }
+  } else if (const auto* array = node.as_array()) {
+    for (const toml::node& child : *array) refuse_underflows(child, key, lines, file);
+  } else if (const std::string_view literal = literal_at(node, lines); underflowed(node, literal)) {
+    fail_underflow(key, literal, node_origin(node, file));
+  }
+}
+
 toml::table parse_config_file(const std::filesystem::path& path) {
   const std::string text = read_config_text(path);
+  toml::table root;
   try {
-    return toml::parse(text, std::string_view(path.string()));
+    root = toml::parse(text, std::string_view(path.string()));
   } catch (const toml::parse_error& e) {
     throw ConfigError(fmt::format("{}:{}:{}: {}", path.string(), e.source().begin.line,
                                   e.source().begin.column, one_line(e.description())));
   }
+  std::vector<std::string_view> lines;
+  for (std::size_t start = 0; start <= text.size();) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    lines.push_back(std::string_view(text).substr(start, end - start));
+    start = end + 1;
+  }
+  refuse_underflows(root, "", lines, path.string());
+  return root;
 }
 
 /// Puts one `section.name=value` override into the tree.
@@ -449,6 +505,8 @@ void apply_override(toml::table& root, const std::string& assignment, std::strin
     parsed.reset();
   }
   if (parsed && (parsed->size() != 1 || !parsed->contains("v"))) parsed.reset();
+  if (parsed && underflowed(*parsed->get("v"), value))
+    fail_underflow(key, value, std::string(origin));
 
   const std::size_t dot = key.find('.');
   toml::table* target = &root;
