@@ -345,11 +345,11 @@ TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
   EXPECT_EQ(set_error({"case.L=-2.5E-999"}), "case.L = -2.5E-999" + too_small + " (--set)");
   EXPECT_EQ(set_error({"case.L=0e7"}), "");  // a zero written as one
   TempDir dir;
-  const fs::path file =
-      write_file(dir / "tiny.toml", "[time]\nT_end = 1.0 # a run\n[output]\nsnapshot_times = "
-                                    "[0.5, 1e-400]\n");
-  EXPECT_EQ(config_error(file, {}), "output.snapshot_times = 1e-400" + too_small + " (" +
-                                        file.string() + ":4:24)");
+  const fs::path file = write_file(dir / "tiny.toml",
+                                   "[time]\nT_end = 1.0 # a run\n[output]\nsnapshot_times = "
+                                   "[0.5, 1e-400]\n");
+  EXPECT_EQ(config_error(file, {}),
+            "output.snapshot_times = 1e-400" + too_small + " (" + file.string() + ":4:24)");
 }
 
 TEST(RegistryErrors, GridPointsMustBeTwoToTheKPlusOne) {
