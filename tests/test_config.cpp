@@ -344,6 +344,11 @@ TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
   EXPECT_EQ(set_error({"case.M=1e-400"}), "case.M = 1e-400" + too_small + " (--set)");
   EXPECT_EQ(set_error({"case.L=-2.5E-999"}), "case.L = -2.5E-999" + too_small + " (--set)");
   EXPECT_EQ(set_error({"case.L=0e7"}), "");  // a zero written as one
+  // ... and one too large, which TOML refuses to read ("must be a number").
+  EXPECT_EQ(
+      set_error({"case.M=1e400"}),
+      "case.M = 1e400: is beyond the range of a double (magnitudes up to 1.79769e+308) (--set)");
+  EXPECT_EQ(set_error({"case.M=1e400x"}), "case.M = \"1e400x\": must be a number > 0 (--set)");
   TempDir dir;
   const fs::path file = write_file(dir / "tiny.toml",
                                    "[time]\nT_end = 1.0 # a run\n[output]\nsnapshot_times = "

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <memory>
@@ -424,6 +425,16 @@ bool underflowed(const toml::node& node, std::string_view literal) {
   return mantissa.find_first_of("123456789") != std::string_view::npos;
 }
 
+/// Whether `literal` is a decimal number beyond the range of a double
+/// (1e400): TOML refuses to read it, and it was "must be a number".
+bool overflows(const std::string& literal) {
+  if (literal.empty() || literal.find_first_of("0123456789") == std::string::npos) return false;
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(literal.c_str(), &end);
+  return errno == ERANGE && std::isinf(v) && end == literal.c_str() + literal.size();
+}
+
 [[noreturn]] void fail_underflow(const std::string& key, std::string_view literal,
                                  const std::string& origin) {
   fail_value(key, std::string(literal),
@@ -507,6 +518,12 @@ void apply_override(toml::table& root, const std::string& assignment, std::strin
   if (parsed && (parsed->size() != 1 || !parsed->contains("v"))) parsed.reset();
   if (parsed && underflowed(*parsed->get("v"), value))
     fail_underflow(key, value, std::string(origin));
+  if (!parsed && overflows(value)) {
+    fail_value(key, value,
+               fmt::format("is beyond the range of a double (magnitudes up to {:g})",
+                           std::numeric_limits<double>::max()),
+               std::string(origin));
+  }
 
   const std::size_t dot = key.find('.');
   toml::table* target = &root;
