@@ -52,6 +52,7 @@ def cases():
 
 
 def run_case(binary, grid, run_dir, config, overrides, timeout):
+    """Runs one impact on one thread: exit code ("timeout" if killed), stderr as written, seconds."""
     args = [binary, "impact", "--quiet", "--out", run_dir]
     if config:
         args.insert(2, config)
@@ -61,7 +62,7 @@ def run_case(binary, grid, run_dir, config, overrides, timeout):
     start = time.monotonic()
     try:
         p = subprocess.run(args, capture_output=True, text=True, timeout=timeout, env=env)
-        code, err = p.returncode, p.stderr.strip()
+        code, err = p.returncode, p.stderr
     except subprocess.TimeoutExpired:
         code, err = "timeout", f"killed after {timeout} s"
     return code, err, time.monotonic() - start
@@ -188,6 +189,7 @@ def main():
         run_dir = os.path.join(out, "runs", name)
         shutil.rmtree(run_dir, ignore_errors=True)
         code, err, seconds = run_case(a.binary, a.grid, run_dir, config, overrides, a.timeout)
+        err = err.strip()
         with open(run_dir + ".err", "w") as f:
             f.write(err + "\n")
         rows.append(record(name, group, code, err, seconds, run_dir))

@@ -21,14 +21,15 @@ import math
 import os
 import random
 import shutil
-import subprocess
 import sys
+
+from case_map import run_case
 
 
 def draw(rng):
-    g = rng.choice([65, 129])
-    sets = [f"grid.points={g}",
-            f"case.M={math.exp(rng.uniform(math.log(0.5), math.log(2000))):.4g}",
+    """A grid and the --set overrides of one random case."""
+    grid = rng.choice([65, 129])
+    sets = [f"case.M={math.exp(rng.uniform(math.log(0.5), math.log(2000))):.4g}",
             f"case.L={rng.uniform(0, 25):.3g}",
             f"time.Delta0={rng.uniform(0.5, 3):.3g}",
             f"time.V0={rng.uniform(0.3, 2):.3g}"]
@@ -44,7 +45,7 @@ def draw(rng):
             sets += ["lubricant.ph_star=1e9"]
     if rng.random() < 0.1:
         sets += ["body.elastic=false"]
-    return sets
+    return grid, sets
 
 
 def defects_of(code, err, run_dir, sets, tolerance=1e-5):
@@ -84,22 +85,14 @@ def main():
     parser.add_argument("--binary", default="build/apps/ehlsim")
     args = parser.parse_args()
     rng = random.Random(args.seed)
-    env = dict(os.environ, OMP_NUM_THREADS="1")
     defects = []
     for i in range(args.cases):
-        sets = draw(rng)
+        grid, sets = draw(rng)
         run_dir = os.path.join(args.out, f"{args.seed}_{i}")
         shutil.rmtree(run_dir, ignore_errors=True)
-        command = [args.binary, "impact", "--quiet", "--out", run_dir]
-        for s in sets:
-            command += ["--set", s]
-        try:
-            p = subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
-            problem = defects_of(p.returncode, p.stderr, run_dir, sets)
-            code, err = p.returncode, p.stderr.strip()
-        except subprocess.TimeoutExpired:
-            code, err, problem = "timeout", "", "no end within 600 s"
-        line = f"{i} exit {code} | {' '.join(sets)} | {err[:200]}"
+        code, err, _ = run_case(args.binary, grid, run_dir, None, sets, timeout=600)
+        problem = defects_of(code, err, run_dir, sets)
+        line = f"{i} exit {code} | grid.points={grid} {' '.join(sets)} | {err.strip()[:200]}"
         print(line + (f" | DEFECT: {problem}" if problem else ""), flush=True)
         if problem:
             defects.append(line + " | " + problem)
