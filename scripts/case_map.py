@@ -51,9 +51,10 @@ def cases():
     return out
 
 
-def run_case(binary, grid, run_dir, config, overrides, timeout):
-    """Runs one impact on one thread: exit code ("timeout" if killed), stderr as written, seconds."""
-    args = [binary, "impact", "--quiet", "--out", run_dir]
+def run_case(binary, grid, run_dir, config, overrides, timeout, mode="impact"):
+    """Runs one case (an impact, or `mode`) on one thread: exit code ("timeout" if killed),
+    stderr as written, seconds."""
+    args = [binary, mode, "--quiet", "--out", run_dir]
     if config:
         args.insert(2, config)
     for o in overrides + [f"grid.points={grid}"]:
