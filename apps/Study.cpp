@@ -408,6 +408,9 @@ std::optional<std::string> study_owned(const std::string& key) {
   const std::string section = key.substr(0, key.find('.'));
   if (section == "case" || section == "physical")
     return fmt::format("M = {} with L = {:g}", fmt::join(kStudyM, ", "), kStudyL);
+  // A Roelands law's own z or alpha would set an L of its own.
+  if (key == "lubricant.z" || key == "lubricant.alpha")
+    return fmt::format("the Roelands index from L = {:g}", kStudyL);
   if (key == "grid" || key == "grid.points") return std::string("grid.points from --grid");
   if (key == "output" || key.starts_with("output.snapshot_"))
     return std::string("the snapshots of the paper's figures");

@@ -208,7 +208,6 @@ TEST(Registry, ReadsATomlFile) {
 # a comment
 [case]
 M = 20          # an integer is a fine float
-L = 5.5
 [lubricant]
 viscosity = "roelands"
 density = "dowson-higginson"
@@ -243,9 +242,10 @@ deformation = "direct"
 )");
   const ImpactConfig c = load_config(file, {});
   EXPECT_EQ(c.M, 20.0);
-  EXPECT_EQ(c.L, 5.5);
   EXPECT_DOUBLE_EQ(c.lambda_bar, moes_lambda_bar(20.0));
-  EXPECT_DOUBLE_EQ(c.alpha_bar, moes_alpha_bar(20.0, 5.5));
+  // The Roelands law's z sets L (Parameters.ARoelandsLawGivenItsOwnAlphaHasItsOwnL).
+  EXPECT_DOUBLE_EQ(c.alpha_bar, 0.6 * (std::log(0.04) + 9.67) / 1.96e8 * 1e9);
+  EXPECT_DOUBLE_EQ(c.L, moes_L(c.lambda_bar, c.alpha_bar));
   EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
   EXPECT_EQ(c.density, DensityModel::DowsonHigginson);
   EXPECT_EQ(c.eta0_Pa_s, 0.04);
@@ -448,6 +448,40 @@ TEST(RegistryErrors, UnreadableAndMalformedFiles) {
   EXPECT_EQ(config_error(f, {}), "cannot read config file '" + f + "'" + too_large);
   write_file(f, "# " + std::string(kLimit - 20, 'x') + "\n[case]\nM = 20\n");
   EXPECT_EQ(load_config(fs::path(f), {}).M, 20.0);  // just below the limit: read
+}
+
+TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
+  // lubricant.alpha = 2e-8 with ph* = 1 GPa: alpha_bar = 20 at p = 0, so L is
+  // Moes' L of alpha_bar 20 at M = 100, as in the rolling contact; run.json
+  // recorded the default L = 10 and its alpha_bar 16.9 before.
+  const std::vector<std::string> roelands = {"lubricant.viscosity=roelands", "lubricant.eta0=0.05",
+                                             "lubricant.ph_star=1e9"};
+  std::vector<std::string> with_alpha = roelands;
+  with_alpha.push_back("lubricant.alpha=2e-8");
+  const ImpactConfig c = load_config(std::nullopt, with_alpha);
+  EXPECT_NEAR(c.alpha_bar, 20.0, 1e-12);
+  EXPECT_NEAR(c.L, moes_L(c.lambda_bar, 20.0), 1e-12);
+  EXPECT_NEAR(c.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.05), 1e-15);
+  // z derived from case.L (neither z nor alpha given) keeps case.L.
+  EXPECT_EQ(load_config(std::nullopt, roelands).L, 10.0);
+  // Both is a contradiction, in a file too (examples/roelands-dh.toml gives L).
+  std::vector<std::string> with_alpha_bar = with_alpha;
+  with_alpha_bar.push_back("case.alpha_bar=3");
+  EXPECT_EQ(set_error(with_alpha_bar),
+            "case.alpha_bar = 3: cannot be given together with lubricant.alpha: the Roelands "
+            "law's pressure-viscosity coefficient sets L and alpha_bar (give one of them) (--set)");
+  const fs::path example = fs::path(EHLSIM_SOURCE_DIR) / "examples" / "roelands-dh.toml";
+  EXPECT_EQ(config_error(example, {"lubricant.z=0.6"}),
+            "case.L = 10: cannot be given together with lubricant.z: the Roelands law's "
+            "pressure-viscosity coefficient sets L and alpha_bar (give one of them) (" +
+                example.string() + ":17:5)");
+  // A [physical] section's alpha sets z: a z beside it contradicted it.
+  EXPECT_EQ(set_error({"physical.reduced_radius=0.01", "physical.ball_mass=0.03",
+                       "physical.impact_speed=0.1", "physical.reduced_modulus=2.2e11",
+                       "physical.eta0=0.04", "physical.alpha=2e-8", "lubricant.viscosity=roelands",
+                       "lubricant.z=0.6"}),
+            "lubricant.z = 0.6: is set by physical.alpha of the [physical] section; remove one of "
+            "them (--set)");
 }
 
 TEST(RegistryErrors, InconsistentCombinations) {

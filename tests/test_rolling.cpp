@@ -508,7 +508,7 @@ TEST(Rolling, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(std::string(e.what()),
               "case.L = 0: cannot be given together with lubricant.alpha: the Roelands law's "
-              "pressure-viscosity coefficient sets L (give one of them) (--set)");
+              "pressure-viscosity coefficient sets L and alpha_bar (give one of them) (--set)");
   }
 }
 

@@ -8,6 +8,7 @@
 // lubricant, the solids, the multigrid settings) are added by the shared
 // add_*_parameters functions (config/SharedParameters.cpp).
 #include <filesystem>
+#include <initializer_list>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -210,6 +211,15 @@ struct PhysicalLubricant {
 /// that set M) when M or lambda_bar is wrong, else `lubricant_key`.
 void check_moes_groups(const Inputs& in, const MoesGroups& groups, const std::string& load_key,
                        const std::string& lubricant_key);
+
+/// The groups of a case whose Roelands law was given its own pressure-viscosity
+/// (lubricant.z or lubricant.alpha, no [physical] section): L and alpha_bar
+/// are then the lubricant's, alpha ph* at p = 0, and a key of `L_keys` (the
+/// [case] keys that set L) given as well is refused.  Otherwise `g` as it is.
+/// `load_key` names the key that set M, for check_moes_groups.
+[[nodiscard]] MoesGroups with_lubricant_L(const Inputs& in, const Lubricant& lub, MoesGroups g,
+                                          std::initializer_list<const char*> L_keys,
+                                          const std::string& load_key);
 
 /// [solver]: the multigrid settings both modes have (SolverSettings), with
 /// the defaults of the mode.  `max_cycles_doc` says what a cycle limit means

@@ -373,6 +373,10 @@ void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
   if (c.physical)
     physical = {c.physical->ph_star_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
   const Lubricant lub = assemble_lubricant(in, c.alpha_bar, physical);
+  const MoesGroups g = with_lubricant_L(in, lub, {c.M, c.L, c.lambda_bar, c.alpha_bar},
+                                        {"case.L", "case.alpha_bar"}, load_key(in));
+  c.L = g.L;
+  c.alpha_bar = g.alpha_bar;
   c.viscosity = lub.viscosity;
   c.density = lub.density;
   c.ph_star_Pa = lub.ph_star_Pa;

@@ -103,25 +103,6 @@ void assemble_physical(const Inputs& in, RollingConfig& c) {
   c.physical = p;
 }
 
-/// A Roelands law given its own pressure-viscosity (lubricant.z or
-/// lubricant.alpha) has its own L, alpha ph* at p = 0 in Moes' units: the L
-/// printed, recorded and compared with the film formula.  case.L kept its
-/// default or the user's value, and contradicted the lubricant (case.L = 0
-/// with lubricant.alpha = 2e-8: a film 243 % above the formula of L = 0).
-void take_roelands_own_L(const Inputs& in, RollingConfig& c) {
-  const bool own = in.has("lubricant.z") || in.has("lubricant.alpha");
-  if (c.physical || c.lubricant.viscosity != ViscosityModel::Roelands || !own) return;
-  const std::string key = in.has("lubricant.z") ? "lubricant.z" : "lubricant.alpha";
-  if (in.has("case.L"))
-    in.fail("case.L", fmt::format("cannot be given together with {}: the Roelands law's "
-                                  "pressure-viscosity coefficient sets L (give one of them)",
-                                  key));
-  c.alpha_bar = c.lubricant.roelands_alpha() * c.lubricant.ph_star_Pa;
-  c.L = moes_L(c.lambda_bar, c.alpha_bar);
-  c.lubricant.alpha_bar = c.alpha_bar;
-  check_moes_groups(in, {c.M, c.L, c.lambda_bar, c.alpha_bar}, "case.M", key);
-}
-
 void assemble_rolling_case(const Inputs& in, RollingConfig& c) {
   if (in.any_in_section("physical")) {
     for (const char* key : {"case.M", "case.L", "case.D"})
@@ -138,7 +119,11 @@ void assemble_rolling_case(const Inputs& in, RollingConfig& c) {
   std::optional<PhysicalLubricant> physical;
   if (c.physical) physical = {c.physical->ph_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
   c.lubricant = assemble_lubricant(in, c.alpha_bar, physical);
-  take_roelands_own_L(in, c);
+  const MoesGroups g = with_lubricant_L(in, c.lubricant, {c.M, c.L, c.lambda_bar, c.alpha_bar},
+                                        {"case.L"}, "case.M");
+  c.L = g.L;
+  c.alpha_bar = g.alpha_bar;
+  c.lubricant.alpha_bar = g.alpha_bar;
 }
 
 /// The relative difference of the domain's sides that counts as square.
