@@ -591,6 +591,11 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   expect_bad_input(ehlsim("study --grid 33 --set case.M=3 --out " + quote(out.string())),
                    "--set 'case.M=3': the study sets case.M itself in every case (M = 100, 50, "
                    "20, 10 with L = 10); --set applies the other keys to every case");
+  // A Roelands law's own z would set another L in every case.
+  expect_bad_input(
+      ehlsim("study --grid 33 --set lubricant.z=0.6 --out " + quote(out.string())),
+      "--set 'lubricant.z=0.6': the study sets lubricant.z itself in every case (the Roelands "
+      "index from L = 10); --set applies the other keys to every case");
   expect_bad_input(
       ehlsim("study --grid 33 --set output.snapshot_every=1 --out " + quote(out.string())),
       "--set 'output.snapshot_every=1': the study sets output.snapshot_every itself in every case "
