@@ -480,8 +480,8 @@ TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
                        "physical.impact_speed=0.1", "physical.reduced_modulus=2.2e11",
                        "physical.eta0=0.04", "physical.alpha=2e-8", "lubricant.viscosity=roelands",
                        "lubricant.z=0.6"}),
-            "lubricant.z = 0.6: is set by physical.alpha of the [physical] section; remove one of "
-            "them (--set)");
+            "lubricant.z = 0.6: is set by physical.alpha of the [physical] section; remove one "
+            "(--set)");
 }
 
 TEST(RegistryErrors, InconsistentCombinations) {

@@ -213,7 +213,7 @@ void check_moes_groups(const Inputs& in, const MoesGroups& groups, const std::st
                        const std::string& lubricant_key);
 
 /// The groups of a case whose Roelands law was given its own pressure-viscosity
-/// (lubricant.z or lubricant.alpha, no [physical] section): L and alpha_bar
+/// (lubricant.z or lubricant.alpha, which a [physical] section refuses): L and alpha_bar
 /// are then the lubricant's, alpha ph* at p = 0, and a key of `L_keys` (the
 /// [case] keys that set L) given as well is refused.  Otherwise `g` as it is.
 /// `load_key` names the key that set M, for check_moes_groups.

@@ -289,9 +289,7 @@ Lubricant assemble_lubricant(const Inputs& in, double alpha_bar,
     }
     // z beside physical.alpha gave a viscosity other than the recorded L's.
     if (in.has("lubricant.z"))
-      in.fail("lubricant.z",
-              "is set by physical.alpha of the [physical] section; remove one of "
-              "them");
+      in.fail("lubricant.z", "is set by physical.alpha of the [physical] section; remove one");
   }
   lub.ph_star_Pa =
       physical ? physical->ph_star_Pa : in.optional_real("lubricant.ph_star").value_or(0.0);
@@ -343,7 +341,8 @@ MoesGroups with_lubricant_L(const Inputs& in, const Lubricant& lub, MoesGroups g
                             std::initializer_list<const char*> L_keys,
                             const std::string& load_key) {
   const bool own = in.has("lubricant.z") || in.has("lubricant.alpha");
-  if (in.any_in_section("physical") || lub.viscosity != ViscosityModel::Roelands || !own) return g;
+  // (Beside a [physical] section assemble_lubricant refused both keys.)
+  if (lub.viscosity != ViscosityModel::Roelands || !own) return g;
   const std::string key = in.has("lubricant.z") ? "lubricant.z" : "lubricant.alpha";
   for (const char* L_key : L_keys) {
     if (in.has(L_key))
