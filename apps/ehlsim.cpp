@@ -413,6 +413,7 @@ int run_spike(const SpikeOptions& options) {
     print_out("{} snapshots analysed; wrote", report.snapshots);
     for (const auto& file : report.files) print_out(" {}", file.string());
     print_out("\n");
+    cli::print_warnings(report.warnings);
   }
   return kExitOk;
 }

@@ -570,6 +570,35 @@ TEST(Cli, SpikeFilesOfARun) {
   }
 }
 
+TEST(Cli, ASpikeAnalysisOfAWavySurfaceSaysItMixesDirections) {
+  // The analysis sorts P by R alone (docs/model.md, section 10); with
+  // waviness P depends on the direction too, and R_s mixes them.
+  TempDir dir;
+  const fs::path wavy = dir / "wavy";
+  ASSERT_EQ(tiny_run(wavy,
+                     "--set time.T_end=0.2 --set surface.waviness_amplitude=0.05 "
+                     "--set surface.waviness_wavelength=0.5 --set surface.waviness_angle_deg=30")
+                .exit_code,
+            0);
+  const std::string note =
+      "the waviness (surface.waviness_amplitude = 0.05) makes the pressure depend on the "
+      "direction, while the spike analysis (spike.csv, ehlsim spike) sorts the pressure of X, Y "
+      ">= 0 by the radius R alone: its R_s and P_s are of that mixture of directions; "
+      "axis_profiles.csv (ehlsim spike) and fields.nc hold the pressure itself";
+  const auto warnings_of = [](const fs::path& run) {
+    return nlohmann::json::parse(read_file(run / "run.json")).at("results").at("warnings");
+  };
+  EXPECT_EQ(warnings_of(wavy), nlohmann::json::array({note}));
+  const Result analysis = ehlsim("spike " + quote(wavy.string()));
+  ASSERT_EQ(analysis.exit_code, 0) << analysis.err;
+  EXPECT_EQ(analysis.err, "ehlsim: warning: " + note + "\n");
+  // A smooth ball's run and analysis say nothing of the kind.
+  const fs::path smooth = dir / "smooth";
+  ASSERT_EQ(tiny_run(smooth, "--set time.T_end=0.2").exit_code, 0);
+  EXPECT_TRUE(warnings_of(smooth).empty());
+  EXPECT_EQ(ehlsim("spike " + quote(smooth.string())).err, "");
+}
+
 TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   TempDir dir;
   const fs::path out = dir / "study";

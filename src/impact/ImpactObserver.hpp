@@ -88,7 +88,7 @@ struct RunSummary {
   int retried_steps = 0;      ///< steps solved again with more damping after diverging
   /// Kinetic plus elastic energy left at the end, over the impact energy V0^2 / 2.
   double final_energy = std::numeric_limits<double>::quiet_NaN();
-  /// What the user should know about the result, one line each (domain_warnings).
+  /// What the user should know about the result, one line each (run_warnings).
   std::vector<std::string> warnings;
 };
 

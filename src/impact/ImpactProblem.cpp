@@ -951,7 +951,7 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     if (end) {
       summary.outcome = *end;
       summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);
-      summary.warnings = domain_warnings(summary, cfg);
+      summary.warnings = run_warnings(summary, cfg);
       if (*end == RunOutcome::LiftOff) {
         summary.lifted_off = true;
         summary.T_lift_off = ball.T;

@@ -219,10 +219,21 @@ std::string domain_note(double edge_impulse, const ImpactConfig& c) {
       100.0 * share, 100.0 * kEdgeImpulseWarning, 2.0 * c.half_width, 2 * c.grid_points - 1);
 }
 
-std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c) {
-  std::string note = domain_note(s.edge_impulse, c);
-  if (note.empty()) return {};
-  return {std::move(note)};
+std::string spike_note(double waviness_amplitude) {
+  if (!(waviness_amplitude > 0.0)) return {};
+  return fmt::format(
+      "the waviness (surface.waviness_amplitude = {:g}) makes the pressure depend on the "
+      "direction, while the spike analysis (spike.csv, ehlsim spike) sorts the pressure of "
+      "X, Y >= 0 by the radius R alone: its R_s and P_s are of that mixture of directions; "
+      "axis_profiles.csv (ehlsim spike) and fields.nc hold the pressure itself",
+      waviness_amplitude);
+}
+
+std::vector<std::string> run_warnings(const RunSummary& s, const ImpactConfig& c) {
+  std::vector<std::string> warnings;
+  for (std::string note : {domain_note(s.edge_impulse, c), spike_note(c.waviness_amplitude)})
+    if (!note.empty()) warnings.push_back(std::move(note));
+  return warnings;
 }
 
 bool is_at_rest(double V, double elastic_energy, const RunBounds& b) {

@@ -135,8 +135,13 @@ inline constexpr double kEdgeImpulseWarning = 0.01;
 /// exceeds kEdgeImpulseWarning of m V0, else "".
 [[nodiscard]] std::string domain_note(double edge_impulse, const ImpactConfig& c);
 
-/// What a finished run should tell its user about its domain: domain_note's
-/// sentence, or nothing.
-[[nodiscard]] std::vector<std::string> domain_warnings(const RunSummary& s, const ImpactConfig& c);
+/// What a wavy surface means for the spike analysis, which treats the
+/// pressure as a function of the radius alone (docs/model.md, section 10): a
+/// sentence when the amplitude (surface.waviness_amplitude) is > 0, else "".
+[[nodiscard]] std::string spike_note(double waviness_amplitude);
+
+/// What a finished run should tell its user: domain_note's and spike_note's
+/// sentences, those that apply.
+[[nodiscard]] std::vector<std::string> run_warnings(const RunSummary& s, const ImpactConfig& c);
 
 }  // namespace ehlsim

@@ -15,6 +15,7 @@
 #include "analysis/SpikeAnalysis.hpp"
 #include "config/Parameters.hpp"
 #include "grid/FieldExtrema.hpp"
+#include "impact/RunGuards.hpp"
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
@@ -103,6 +104,17 @@ double run_parameter(const nlohmann::json& run, const char* section, const char*
     throw ConfigError(
         fmt::format("cannot read '{}': no number parameters.{}.{}", path.string(), section, key));
   }
+}
+
+/// The run's surface.waviness_amplitude, or 0 where run.json has no number
+/// there (the analysis needs none: it only warns of a wavy surface).
+double recorded_waviness(const nlohmann::json& run) {
+  const nlohmann::json* value = &run;
+  for (const char* key : {"parameters", "surface", "waviness_amplitude"}) {
+    if (!value->is_object() || !value->contains(key)) return 0.0;
+    value = &value->at(key);
+  }
+  return value->is_number() ? value->get<double>() : 0.0;
 }
 
 /// Opens the fields.nc of a run, read in a child process first (a file HDF5
@@ -199,6 +211,8 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
   const std::unique_ptr<FieldReader> fields = open_fields(run_dir / RunOutput::kFieldsFile);
 
   RunAnalysisReport report;
+  if (std::string note = spike_note(recorded_waviness(run)); !note.empty())
+    report.warnings.push_back(std::move(note));
   report.files = {staging / kSpikeSnapshotsFile, staging / kSpikeProfilesFile,
                   staging / kAxisProfilesFile};
   SpikeSeriesWriter series(report.files[0]);

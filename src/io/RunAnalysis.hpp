@@ -14,6 +14,7 @@ namespace ehlsim {
 struct RunAnalysisReport {
   std::size_t snapshots = 0;
   std::vector<std::filesystem::path> files;
+  std::vector<std::string> warnings;  ///< what the user should know of the analysis
 };
 
 inline constexpr const char* kSpikeSnapshotsFile = "spike_snapshots.csv";
