@@ -1210,6 +1210,23 @@ TEST(Progress, AStatusLineShowsANoteAndThenItsStateAgain) {
   std::fclose(log_stream);
 }
 
+TEST(Progress, ALogEndsWithTheDoneLineAlsoWhenTheLastStateWasPrinted) {
+  // A rolling run whose 10-second line fell on its last cycle ended its log
+  // without "done in".
+  std::FILE* log_stream = std::tmpfile();
+  ASSERT_TRUE(log_stream);
+  {
+    StatusLine line(true, log_stream);
+    line.update([](double, bool done) { return std::string(done ? "state done" : "state"); });
+    line.finish();
+  }
+  std::rewind(log_stream);
+  std::string text(256, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  EXPECT_EQ(text, "state\nstate done\n");
+  std::fclose(log_stream);
+}
+
 // ---------------------------------------------------------------------------
 // RunOutput
 // ---------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 // compared with, the Hertz limit, second order in space, the film against
 // Nijenbanning, Venner & Moes (1994), the force balance, and the command line.
 #include <gtest/gtest.h>
+#include <netcdf.h>
 
 #include <algorithm>
 #include <chrono>
@@ -739,6 +740,23 @@ TEST(RollingCli, WritesTheRunDirectory) {
   for (const char* key :
        {"\"Hc\"", "\"Hm\"", "\"Hc_moes\"", "\"Hm_moes\"", "\"H0\"", "\"P_max\"", "\"residual\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
+  // fields.nc names the rolling contact's scales, not the impact's.
+  int ncid = -1;
+  ASSERT_EQ(nc_open((dir / "run" / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
+  const auto long_name = [ncid](const char* variable) {
+    int var = -1;
+    std::size_t size = 0;
+    if (nc_inq_varid(ncid, variable, &var) != NC_NOERR ||
+        nc_inq_attlen(ncid, var, "long_name", &size) != NC_NOERR)
+      return std::string("<missing>");
+    std::string text(size, '\0');
+    nc_get_att_text(ncid, var, "long_name", text.data());
+    return text;
+  };
+  EXPECT_EQ(long_name("H"), "dimensionless film thickness H = h Rx / a^2");
+  EXPECT_EQ(long_name("x"), "dimensionless coordinate X = x / a (along the rolling)");
+  EXPECT_EQ(long_name("time"), "record of the steady solution (0; no time dependence)");
+  nc_close(ncid);
 }
 
 TEST(RollingCli, SaysWhenItSolvedAgainWithTheOtherUpdate) {

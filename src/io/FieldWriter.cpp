@@ -84,24 +84,24 @@ FieldDimensions define_coordinates(const NcFile& nc, const FieldLayout& layout) 
   nc.check(nc_def_dim(nc.id, "time", NC_UNLIMITED, &dims.time), "nc_def_dim(time)");
   nc.check(nc_def_dim(nc.id, "y", layout.y.size(), &dims.y), "nc_def_dim(y)");
   nc.check(nc_def_dim(nc.id, "x", layout.x.size(), &dims.x), "nc_def_dim(x)");
-  const auto coordinate = [&](const char* name, int dim, const char* long_name) {
+  const auto coordinate = [&](const char* name, int dim, const std::string& long_name) {
     int var = -1;
     nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 1, &dim, &var), name);
     put_text(nc, var, "long_name", long_name);
     put_text(nc, var, "units", kDimensionless);
     return var;
   };
-  const int time = coordinate("time", dims.time, "dimensionless time T = t / t_bar");
+  const int time = coordinate("time", dims.time, layout.time_name);
   put_text(nc, time, "axis", "T");
-  coordinate("y", dims.y, "dimensionless coordinate Y = y / a*");
-  coordinate("x", dims.x, "dimensionless coordinate X = x / a*");
+  coordinate("y", dims.y, layout.y_name);
+  coordinate("x", dims.x, layout.x_name);
   return dims;
 }
 
 void define_fields(const NcFile& nc, const FieldLayout& layout, const FieldDimensions& d) {
   const std::array<int, 3> dims = {d.time, d.y, d.x};
   const std::array<std::size_t, 3> chunk = {1, layout.y.size(), layout.x.size()};
-  const auto field = [&](const char* name, const char* long_name) {
+  const auto field = [&](const char* name, const std::string& long_name) {
     int var = -1;
     nc.check(nc_def_var(nc.id, name, NC_DOUBLE, 3, dims.data(), &var), "nc_def_var");
     nc.check(nc_def_var_chunking(nc.id, var, NC_CHUNKED, chunk.data()), "nc_def_var_chunking");
@@ -112,7 +112,7 @@ void define_fields(const NcFile& nc, const FieldLayout& layout, const FieldDimen
     put_text(nc, var, "coordinates", "time y x");
   };
   field("P", "dimensionless pressure P = p / ph*");
-  field("H", "dimensionless film thickness H = h R / a*^2");
+  field("H", layout.film_name);
 }
 
 void put_global_attributes(const NcFile& nc, const FieldLayout& layout,

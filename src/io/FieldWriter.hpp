@@ -37,6 +37,12 @@ struct FieldLayout {
   std::vector<double> x;
   std::vector<double> y;
   std::string title;
+  /// The long_name attributes that differ between the modes (the impact's
+  /// scales; docs/model.md, sections 2 and 11).
+  std::string time_name = "dimensionless time T = t / t_bar";
+  std::string x_name = "dimensionless coordinate X = x / a*";
+  std::string y_name = "dimensionless coordinate Y = y / a*";
+  std::string film_name = "dimensionless film thickness H = h R / a*^2";
 
   /// The square grid of an impact run (RunOutput passes the full grid).
   [[nodiscard]] static FieldLayout impact(const Grid2D& grid);

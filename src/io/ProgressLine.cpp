@@ -95,7 +95,9 @@ void StatusLine::note(const std::string& line) {
 
 void StatusLine::finish() {
   if (!enabled_) return;
-  if (last_ && (pending_ || (printed_ && terminal_))) print(elapsed(), true);
+  // In a log too when the last state was printed already: its "done" line
+  // is how a reader of the log sees that the solve ended.
+  if (last_ && (pending_ || printed_)) print(elapsed(), true);
   end_line();
 }
 

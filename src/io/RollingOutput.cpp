@@ -75,6 +75,12 @@ void write_rolling_run(const std::filesystem::path& dir, const RollingConfig& co
   const nlohmann::json parameters = rolling_parameters_json(config);
   FieldLayout layout = FieldLayout::impact(result.grid);
   layout.title = "ehlsim: steady rolling EHL point contact (pressure and film thickness)";
+  // Hertz units of the rolling contact (docs/model.md, section 11): a is the
+  // dry contact's radius along X; one record, the steady solution.
+  layout.time_name = "record of the steady solution (0; no time dependence)";
+  layout.x_name = "dimensionless coordinate X = x / a (along the rolling)";
+  layout.y_name = "dimensionless coordinate Y = y / a";
+  layout.film_name = "dimensionless film thickness H = h Rx / a^2";
   FieldWriter fields(dir / "fields.nc", std::move(layout), parameters);
   fields.append(0.0, result.P, result.H);
   write_profiles(dir, result);
