@@ -222,10 +222,10 @@ void check_moes_groups(const Inputs& in, const MoesGroups& groups, const std::st
                                           const std::string& load_key);
 
 /// [solver]: the multigrid settings both modes have (SolverSettings), with
-/// the defaults of the mode.  `max_cycles_doc` says what a cycle limit means
-/// in the mode.
+/// the defaults of the mode.  `tolerance_doc` and `max_cycles_doc` say what
+/// convergence and a cycle limit mean in the mode.
 void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettings& defaults,
-                           const std::string& max_cycles_doc);
+                           const std::string& tolerance_doc, const std::string& max_cycles_doc);
 /// The SolverSettings of validated [solver] inputs (checks coarsest_points
 /// against grid.points and pre_sweeps + post_sweeps >= 1).
 [[nodiscard]] SolverSettings assemble_solver(const Inputs& in);

@@ -186,6 +186,7 @@ void add_output_parameters(std::vector<ParameterSpec>& r) {
 /// [solver]: the shared multigrid keys and the impact's retries, local Newton steps and symmetry.
 void add_impact_solver_parameters(std::vector<ParameterSpec>& r) {
   add_solver_parameters(r, kDefaults.solver_settings(),
+                        "converged when the scaled finest-grid residual is below this",
                         "multigrid cycles per attempt of a time step (up to twice as many while "
                         "it converges steadily; a stalled step is retried with more damping)");
   r.push_back(real("solver.correction_safeguard", kDefaults.correction_safeguard, "", at_least(0),

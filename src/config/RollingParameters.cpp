@@ -62,8 +62,11 @@ std::vector<ParameterSpec> build_rolling_registry() {
   r.push_back(real("grid.y_max", kDefaults.y_max, "", above(0), kUnbounded, "", "other side edge"));
   // [solver]
   add_solver_parameters(r, kDefaults,
-                        "cycles on the finest grid, of all its attempts, before the run fails "
-                        "(exit 1)");
+                        "converged when the scaled finest-grid residual and the relative force "
+                        "error are both below this",
+                        "cycles on the finest grid, of all its attempts, before the run is solved "
+                        "again with the other deformation update (solver.fallback_update) or "
+                        "fails (exit 1)");
   r.push_back(real("solver.h0_relaxation", kDefaults.h0_relaxation, "", above(0), at_most(1), "",
                    "fraction of the Newton change of H0 (force balance) applied after a cycle"));
   r.push_back(integer("solver.fmg_cycles", kDefaults.fmg_cycles, at_least(1),

@@ -182,11 +182,11 @@ void add_relaxation_parameters(std::vector<ParameterSpec>& r,
 }  // namespace
 
 void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& defaults,
-                           const std::string& max_cycles_doc) {
+                           const std::string& tolerance_doc, const std::string& max_cycles_doc) {
   r.push_back(choice("solver.cycle", cycle_type_text(defaults.cycle),
                      {std::string(kCycleV), std::string(kCycleW)}, "multigrid cycle type"));
   r.push_back(real("solver.tolerance", defaults.tolerance, "", above(0), at_most(kMaxTolerance), "",
-                   "converged when the scaled finest-grid residual is below this"));
+                   tolerance_doc));
   r.push_back(integer("solver.max_cycles", defaults.max_cycles, at_least(1), kUnbounded, false,
                       max_cycles_doc));
   r.push_back(integer("solver.pre_sweeps", defaults.pre_sweeps, at_least(0), at_most(kMaxSweeps),
@@ -220,7 +220,7 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                       at_most(kMaxLocalNewtonWindows), false,
                       "the most windows of each local Newton step, centred on the largest "
                       "residuals, no two overlapping (0: one per 32 points of the side of the "
-                      "grid solved on: 16 on the quadrant of 1025^2)"));
+                      "grid solved on, e.g. 16 on the impact's quadrant of 1025^2)"));
 }
 
 /// The Roelands law's own inputs would be ignored by Barus's: most likely the
