@@ -1,6 +1,7 @@
 """Reading and comparing the outputs of ehlsim runs, bit for bit.
 
-A run directory holds timeseries.csv, spike.csv, convergence.csv, fields.nc and run.json
+An impact's run directory holds timeseries.csv, spike.csv, convergence.csv, fields.nc and
+run.json, a rolling contact's profile_x.csv and profile_y.csv instead of the first two
 (docs/usage.md, "Outputs").  The comparisons here are exact:
 
 - the CSV files as text (rows of the same steps must be the same strings);
@@ -20,6 +21,8 @@ import subprocess
 from pathlib import Path
 
 CSV_FILES = ("timeseries.csv", "spike.csv")
+# The rolling contact's (one steady solution; no time series).
+ROLLING_CSV_FILES = ("profile_x.csv", "profile_y.csv")
 # One row per multigrid cycle, the step number first: several rows per step.
 CONVERGENCE_FILE = "convergence.csv"
 FIELDS_FILE = "fields.nc"
@@ -119,7 +122,8 @@ def compare_runs(a, b):
     """Two runs of the same input: every output the same (apart from wall-clock time)."""
     a, b = Path(a), Path(b)
     out = []
-    for name in CSV_FILES + (CONVERGENCE_FILE,):
+    rolling = (a / ROLLING_CSV_FILES[0]).exists()
+    for name in (ROLLING_CSV_FILES if rolling else CSV_FILES) + (CONVERGENCE_FILE,):
         (header_a, rows_a), (header_b, rows_b) = read_rows(a / name), read_rows(b / name)
         out += compare_rows(rows_a, rows_b, name)
         if header_a != header_b:

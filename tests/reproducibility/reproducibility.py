@@ -3,7 +3,9 @@
 
   reproducibility.py BINARY new-process   the same input in a new process gives
                                           the same bits, on 1 and on 2 threads
+                                          (an impact and a rolling contact)
   reproducibility.py BINARY threads       1 and 2 threads give the same bits
+                                          (impacts and rolling contacts)
   reproducibility.py BINARY kill-restart [SEED]
                                           runs killed with kill -9 at random
                                           steps and continued with --restart
@@ -35,6 +37,14 @@ THREAD_CASES = [SMALL_CASE,
                 ["--set", "grid.points=65", "--set", "time.T_end=2.5",
                  "--set", "output.snapshot_every=10"],
                 ["--set", "grid.points=129", "--set", "time.T_end=0.1"]]
+# Rolling contacts on 129^2 (the threads share the transforms' batches there):
+# the default case, and M = 20, L = 20 with a Roelands, Dowson-Higginson
+# lubricant (more cycles, the local Newton step).
+ROLLING_CASES = [["--set", "grid.points=129"],
+                 ["--set", "grid.points=129", "--set", "case.M=20",
+                  "--set", "lubricant.viscosity=roelands", "--set", "lubricant.eta0=0.04",
+                  "--set", "lubricant.ph_star=1e9", "--set", "lubricant.z=1",
+                  "--set", "lubricant.density=dowson-higginson"]]
 KILLS = 10
 DEFAULT_SEED = 20240909
 # Seconds between looks at the checkpoint of a run that is to be killed.
@@ -45,11 +55,11 @@ SPARE_STEPS = 4
 KILL_ATTEMPTS = 3
 
 
-def run(binary, directory, case, threads, extra=()):
-    """`ehlsim impact` in `directory` with --out run; returns the run directory."""
+def run(binary, directory, case, threads, extra=(), mode="impact"):
+    """`ehlsim MODE` in `directory` with --out run; returns the run directory."""
     directory.mkdir(parents=True)
     env = dict(os.environ, OMP_NUM_THREADS=str(threads), OMP_WAIT_POLICY="passive")
-    command = [binary, "impact", "--quiet", *case, *extra, "--out", "run"]
+    command = [binary, mode, "--quiet", *case, *extra, "--out", "run"]
     result = subprocess.run(command, cwd=directory, env=env, capture_output=True, text=True)
     if result.returncode != 0:
         sys.exit(f"{' '.join(command)}: exit {result.returncode}\n{result.stderr}")
@@ -75,6 +85,11 @@ def new_process(binary, work):
         b = run(binary, work / f"b{threads}", SMALL_CASE, threads)
         ok &= report(f"33^2, {rows(a)} steps, {threads} thread(s), two processes",
                      outputs.compare_runs(a, b))
+        case = ROLLING_CASES[0]
+        a = run(binary, work / f"rolling_a{threads}", case, threads, mode="rolling")
+        b = run(binary, work / f"rolling_b{threads}", case, threads, mode="rolling")
+        ok &= report(f"rolling {' '.join(case[1::2])}, {threads} thread(s), two processes",
+                     outputs.compare_runs(a, b))
     return ok
 
 
@@ -84,6 +99,11 @@ def threads(binary, work):
         one = run(binary, work / f"one{k}", case, 1)
         two = run(binary, work / f"two{k}", case, 2)
         ok &= report(f"{' '.join(case[1::2])} ({rows(one)} steps): 1 against 2 threads",
+                     outputs.compare_runs(one, two))
+    for k, case in enumerate(ROLLING_CASES):
+        one = run(binary, work / f"rolling_one{k}", case, 1, mode="rolling")
+        two = run(binary, work / f"rolling_two{k}", case, 2, mode="rolling")
+        ok &= report(f"rolling {' '.join(case[1::2])}: 1 against 2 threads",
                      outputs.compare_runs(one, two))
     return ok
 
