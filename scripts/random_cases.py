@@ -148,9 +148,9 @@ def main():
                         help="points per side to draw from, comma-separated")
     args = parser.parse_args()
     rng = random.Random(args.seed)
+    grids = [int(g) for g in args.grids.split(",")]
     defects = []
     for i in range(args.cases):
-        grids = [int(g) for g in args.grids.split(",")]
         grid, sets = (draw_impact if args.mode == "impact" else draw_rolling)(rng, grids)
         run_dir = os.path.join(args.out, f"{args.mode}_{args.seed}_{i}")
         shutil.rmtree(run_dir, ignore_errors=True)
