@@ -1162,6 +1162,14 @@ TEST(Progress, DurationsAndText) {
   EXPECT_NE(line.text(record(223, 2.0), 10.0, true).find("done in 10.0s"), std::string::npos);
 }
 
+/// What a status line wrote into the temporary file `stream` (up to 4 KiB).
+std::string text_written_to(std::FILE* stream) {
+  std::rewind(stream);
+  std::string text(4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), stream));
+  return text;
+}
+
 TEST(Progress, QuietPrintsNothingAndLogsPrintLines) {
   std::FILE* quiet_stream = std::tmpfile();
   std::FILE* log_stream = std::tmpfile();
@@ -1177,9 +1185,7 @@ TEST(Progress, QuietPrintsNothingAndLogsPrintLines) {
     log.finish();
   }
   EXPECT_EQ(std::ftell(quiet_stream), 0L);
-  std::rewind(log_stream);
-  std::string text(4096, '\0');
-  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  const std::string text = text_written_to(log_stream);
   // The first step, then (within the 10 s throttle) only the final state.
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 2) << text;
   EXPECT_NE(text.find("step 1 "), std::string::npos) << text;
@@ -1202,9 +1208,7 @@ TEST(Progress, AStatusLineShowsANoteAndThenItsStateAgain) {
     for (int n = 51; n <= 100; ++n) line.update(state(n));
     line.finish();
   }
-  std::rewind(log_stream);
-  std::string text(4096, '\0');
-  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  const std::string text = text_written_to(log_stream);
   // The first state, the note, the first state after it, the last one done.
   EXPECT_EQ(text, "state 1\nan event\nstate 51\nstate 100 done\n");
   std::fclose(log_stream);
@@ -1220,9 +1224,7 @@ TEST(Progress, ALogEndsWithTheDoneLineAlsoWhenTheLastStateWasPrinted) {
     line.update([](double, bool done) { return std::string(done ? "state done" : "state"); });
     line.finish();
   }
-  std::rewind(log_stream);
-  std::string text(256, '\0');
-  text.resize(std::fread(text.data(), 1, text.size(), log_stream));
+  const std::string text = text_written_to(log_stream);
   EXPECT_EQ(text, "state\nstate done\n");
   std::fclose(log_stream);
 }
