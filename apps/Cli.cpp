@@ -58,6 +58,14 @@ CLI::Validator not_empty(const std::string& what) {
       "", "NOT_EMPTY");
 }
 
+nlohmann::json invocation_json(const CaseOptions& options, const nlohmann::json& memory) {
+  return {{"config_file", options.config_file.empty() ? nlohmann::json(nullptr)
+                                                      : nlohmann::json(options.config_file)},
+          {"overrides", options.overrides},
+          {"out", options.out_dir},
+          {"memory", memory}};
+}
+
 void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
                       const std::string& what_out) {
   command.add_option("config", options.config_file,

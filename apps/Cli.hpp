@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -57,6 +58,12 @@ struct CaseOptions {
 };
 void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
                       const std::string& what_out);
+
+/// What run.json records under "invocation" for every simulation command:
+/// config_file (null for the built-in case), overrides, out and the memory
+/// estimate `memory` (memory_json).  The impact adds its restart.
+[[nodiscard]] nlohmann::json invocation_json(const CaseOptions& options,
+                                             const nlohmann::json& memory);
 
 /// Refuses an empty argument of an option that names a file or directory
 /// ("--out: must name a directory, not be empty").

@@ -101,9 +101,7 @@ int run_rolling(const RollingOptions& options) {
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const nlohmann::json invocation = {{"config", options.config_file},
-                                     {"overrides", options.overrides},
-                                     {"memory", memory_json(memory)}};
+  const nlohmann::json invocation = cli::invocation_json(options, memory_json(memory));
   write_rolling_run(run_dir.staging(), config, result, invocation, wall);
   try {
     run_dir.publish(false);

@@ -256,15 +256,10 @@ int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept,
 }
 
 /// What run.json records under "invocation".
-nlohmann::json invocation_json(const ImpactOptions& options,
-                               const std::optional<Checkpoint>& checkpoint,
-                               const MemoryBudget& memory) {
-  nlohmann::json invocation = {
-      {"config_file",
-       options.config_file.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.config_file)},
-      {"overrides", options.overrides},
-      {"out", options.out_dir},
-      {"memory", memory_json(memory)}};
+nlohmann::json impact_invocation_json(const ImpactOptions& options,
+                                      const std::optional<Checkpoint>& checkpoint,
+                                      const MemoryBudget& memory) {
+  nlohmann::json invocation = cli::invocation_json(options, memory_json(memory));
   if (checkpoint)
     invocation["restart"] = {{"checkpoint", options.restart_file},
                              {"step", checkpoint->state.step},
@@ -324,7 +319,7 @@ int run_impact(const ImpactOptions& options) {
       print_out("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,
                 checkpoint->state.step, checkpoint->state.ball.T);
   }
-  const nlohmann::json invocation = invocation_json(options, checkpoint, memory);
+  const nlohmann::json invocation = impact_invocation_json(options, checkpoint, memory);
   // A restarted run that fails before its first checkpoint can be resumed
   // from the one it started from.
   KeptCheckpoint kept;

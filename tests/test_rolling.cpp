@@ -740,6 +740,12 @@ TEST(RollingCli, WritesTheRunDirectory) {
   for (const char* key :
        {"\"Hc\"", "\"Hm\"", "\"Hc_moes\"", "\"Hm_moes\"", "\"H0\"", "\"P_max\"", "\"residual\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
+  // run.json's invocation has the impact's keys (cli::invocation_json).
+  const nlohmann::json invocation = nlohmann::json::parse(json).at("invocation");
+  EXPECT_TRUE(invocation.at("config_file").is_null());
+  EXPECT_EQ(invocation.at("out"), (dir / "run").string());
+  EXPECT_EQ(invocation.at("overrides"), nlohmann::json::array({"grid.points=33"}));
+  EXPECT_TRUE(invocation.at("memory").contains("estimate_mb"));
   // fields.nc names the rolling contact's scales, not the impact's.
   int ncid = -1;
   ASSERT_EQ(nc_open((dir / "run" / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
