@@ -3,8 +3,8 @@
 checked for an honest end (docs/validation.md, "Random cases").
 
     /usr/bin/python3 scripts/random_cases.py [--mode impact|rolling] [--seed 11] [--cases 60]
-                                             [--grids 65,129] [--out random-cases]
-                                             [--binary build/apps/ehlsim]
+                                             [--grids 65,129] [--max-M 2000]
+                                             [--out random-cases] [--binary build/apps/ehlsim]
 
 An impact draws M (log-uniform 0.5 to 2000), L (0 to 25), Delta0 (0.5 to 3), V0 (0.3 to 2)
 and a grid of --grids (by default 65^2 or 129^2); 30 % add waviness (amplitude to 0.3,
@@ -14,11 +14,12 @@ A case is a defect when: the exit code is not 0, 1 or 2; an error is not one lin
 negative film in timeseries.csv, a rebound faster than 1.03 V0, or counts its unconverged
 steps other than timeseries.csv shows.
 
-A rolling contact draws M (log-uniform 1 to 2000), L (0 to 25), D (log-uniform 0.25 to 4)
+A rolling contact draws M (log-uniform 1 to --max-M, 2000), L (0 to 25), D (log-uniform 0.25 to 4)
 and a grid of --grids; 25 % move the domain's edges (inlet 2.5 to 6 radii, outlet 1 to 3,
 square cells), 20 % another solver.tolerance (1e-6 to 1e-3), 25 % Roelands, 25 %
 Dowson-Higginson, 10 % rigid bodies.  Its defects: those of an error as above (exit 1 need
-not name a time step: there is none), and for an exit 0 a non-finite result, a residual or
+not name a time step: there is none, but it says what to try: more points, a larger domain,
+more cycles, or the bound of a rigid piezoviscous film), and for an exit 0 a non-finite result, a residual or
 force error above the tolerance, a minimum film that is not positive or above the central
 one, or an elastic Hc more than 15 % from the Nijenbanning-Venner-Moes formula without a
 warning.
@@ -51,10 +52,10 @@ def lubricant_sets(rng):
     return sets
 
 
-def draw_rolling(rng, grids):
+def draw_rolling(rng, grids, max_m):
     """A grid and the --set overrides of one random rolling contact."""
     grid = rng.choice(grids)
-    sets = [f"case.M={math.exp(rng.uniform(math.log(1), math.log(2000))):.4g}",
+    sets = [f"case.M={math.exp(rng.uniform(math.log(1), math.log(max_m))):.4g}",
             f"case.L={rng.uniform(0, 25):.3g}",
             f"case.D={math.exp(rng.uniform(math.log(0.25), math.log(4))):.3g}"]
     if rng.random() < 0.25:
@@ -67,7 +68,7 @@ def draw_rolling(rng, grids):
     return grid, sets + lubricant_sets(rng)
 
 
-def draw_impact(rng, grids):
+def draw_impact(rng, grids, _max_m):
     """A grid and the --set overrides of one random impact."""
     grid = rng.choice(grids)
     sets = [f"case.M={math.exp(rng.uniform(math.log(0.5), math.log(2000))):.4g}",
@@ -81,6 +82,11 @@ def draw_impact(rng, grids):
     return grid, sets + lubricant_sets(rng)
 
 
+# What a rolling contact's exit 1 suggests: more points, a larger domain, more cycles or
+# the other deformation update, or (rigid bodies) the bound on alpha_bar.
+ROLLING_HINTS = ("use more points", "extend it", "may converge it", "bound on alpha_bar")
+
+
 def error_defect(code, err, mode):
     """What is wrong with how a run ended, before its outputs are read."""
     if code not in (0, 1, 2):
@@ -91,6 +97,8 @@ def error_defect(code, err, mode):
         return "error is not one line"
     if mode == "impact" and code == 1 and "time step" not in err:
         return "exit 1 without a time step"
+    if mode == "rolling" and code == 1 and not any(hint in err for hint in ROLLING_HINTS):
+        return "exit 1 without a hint what to try"
     return ""
 
 
@@ -146,12 +154,15 @@ def main():
     parser.add_argument("--binary", default="build/apps/ehlsim")
     parser.add_argument("--grids", default="65,129",
                         help="points per side to draw from, comma-separated")
+    parser.add_argument("--max-M", type=float, default=2000.0,
+                        help="the largest load M a rolling contact draws")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     grids = [int(g) for g in args.grids.split(",")]
     defects = []
     for i in range(args.cases):
-        grid, sets = (draw_impact if args.mode == "impact" else draw_rolling)(rng, grids)
+        draw = draw_impact if args.mode == "impact" else draw_rolling
+        grid, sets = draw(rng, grids, args.max_M)
         run_dir = os.path.join(args.out, f"{args.mode}_{args.seed}_{i}")
         shutil.rmtree(run_dir, ignore_errors=True)
         code, err, _ = run_case(args.binary, grid, run_dir, None, sets, 600, args.mode)

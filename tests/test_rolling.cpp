@@ -532,6 +532,21 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
   EXPECT_NE(message.find("use more points"), std::string::npos) << message;
 }
 
+TEST(Rolling, AFilmFarBelowTheMeshFailsWithAHint) {
+  // M = 1e6, L = 1: the formula's film is 4.7e-5, its inlet and outlet zones
+  // Hc^(2/3) = 1.3e-3 wide against a mesh of 0.19.  The force balance
+  // diverges; the message says why, and how many points the zones need.
+  const std::string message = failure_message(rolling_case(1e6, 1, 33));
+  EXPECT_EQ(message.rfind("the force balance diverged on the 33^2 grid", 0), 0u) << message;
+  EXPECT_NE(message.find("; the formula's film Hc = 4.71e-05 makes the inlet and outlet zones "
+                         "about Hc^(2/3) = 0.0013 wide, 0.007 meshes: the grid cannot resolve "
+                         "this film: use more points (about 9.2e+03 per side for 2 meshes there)"),
+            std::string::npos)
+      << message;
+  // A second deformation update cannot resolve it either: not tried.
+  EXPECT_EQ(message.find("with the deformation updated"), std::string::npos) << message;
+}
+
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
   // One cycle cannot converge anything.  Without the fallback the message
   // names the cycles and the other deformation update.
@@ -691,6 +706,8 @@ TEST(Rolling, AFailureAtLowMSaysTheDomainIsTooSmall) {
                          "extend it (grid.x_min, grid.y_min, grid.y_max) and compare"),
             std::string::npos)
       << message;
+  // Its film spans several meshes: the domain, not the grid, is the reason.
+  EXPECT_EQ(message.find("inlet and outlet zones"), std::string::npos) << message;
 }
 
 TEST(Rolling, ABalanceThatFailsWithAConvergedPressureIsNamedSo) {

@@ -160,6 +160,11 @@ struct CyclesExhausted : RollingFailure {
   using RollingFailure::RollingFailure;
 };
 
+/// Thrown when the converged film is negative: its message has the hint.
+struct NegativeFilm : RollingFailure {
+  using RollingFailure::RollingFailure;
+};
+
 /// Bilinear interpolation of f at (x, y) inside the grid.
 double value_at(const Field& f, const Grid2D& grid, double x, double y) {
   const double h = grid.h();
@@ -534,6 +539,31 @@ std::string update_text(bool each_colour) {
   return each_colour ? "before each colour of the relaxation" : "once per sweep";
 }
 
+/// Outside a dry Hertzian contact the gap grows as (R - 1)^(3/2), so an elastic
+/// film's inlet and outlet zones, where the gap is of the order of the film,
+/// are about Hc^(2/3) wide.  Below one mesh there the iteration fails (a
+/// negative film, or the force balance or the iteration diverging) and a
+/// second deformation update cannot help; the films that converge span at
+/// least 1.5 meshes (M = 1000, L = 0 on 257^2 and L = 5 on 129^2; random
+/// cases with M from 100 to 1e7, docs/validation.md, "Random cases").
+constexpr double kElasticMinMeshes = 1.0;
+/// The meshes that the hint asks for: those of the finest films converged.
+constexpr double kElasticHintMeshes = 2.0;
+
+/// Why an elastic run failed when its film is below the grid's resolution
+/// (kElasticMinMeshes), else "".
+std::string resolution_hint(const RollingConfig& c, double mesh) {
+  const double zone = std::pow(formula_central_film(c), 2.0 / 3.0);
+  const double meshes = zone / mesh;
+  if (!(meshes < kElasticMinMeshes)) return {};
+  const double points = (c.x_max - c.x_min) * kElasticHintMeshes / zone + 1.0;
+  return fmt::format(
+      "; the formula's film Hc = {:.3g} makes the inlet and outlet zones about Hc^(2/3) = {:.3g} "
+      "wide, {:.2g} meshes: the grid cannot resolve this film: use more points (about {:.2g} "
+      "per side for {:g} meshes there) or a smaller domain",
+      formula_central_film(c), zone, meshes, points, kElasticHintMeshes);
+}
+
 /// What else to try when an elastic contact's iteration ran out of cycles
 /// (not when its domain is the reason): the other deformation update, unless
 /// the run has tried it (RollingConfig::fallback_update says why).
@@ -556,11 +586,15 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
     const RollingConfig& c = impl_->cfg;
     const std::string domain = impl_->domain_hint();
     const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
-    if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty())) {
-      std::string why;
+    const std::string unresolved = c.elastic && !dynamic_cast<const NegativeFilm*>(&e)
+                                       ? resolution_hint(c, impl_->grid.h())
+                                       : std::string();
+    if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty() &&
+          unresolved.empty())) {
+      std::string why = unresolved;
       if (!c.elastic) {
         why = rigid_hint(c, impl_->grid.h());
-      } else if (domain.empty() && out_of_cycles) {
+      } else if (domain.empty() && out_of_cycles && unresolved.empty()) {
         why = relaxation_hint(c, false);
       }
       throw RollingFailure(e.what() + domain + why);
@@ -621,7 +655,7 @@ RollingResult RollingProblem::solve(const CycleMonitor& monitor) {
   }
   RollingResult result = s.result();
   if (!(result.Hm > 0.0))
-    throw RollingFailure(fmt::format(
+    throw NegativeFilm(fmt::format(
         "the film is negative (H = {:.3g} at X = {:.4g}, Y = {:.4g}) on the {}^2 grid: the "
         "grid cannot resolve this film: use more points (grid.points)",
         result.Hm, result.X_Hm, result.Y_Hm, result.grid.n));
