@@ -559,8 +559,8 @@ std::string resolution_hint(const RollingConfig& c, double mesh) {
   const double points = (c.x_max - c.x_min) * kElasticHintMeshes / zone + 1.0;
   return fmt::format(
       "; the formula's film Hc = {:.3g} makes the inlet and outlet zones about Hc^(2/3) = {:.3g} "
-      "wide, {:.2g} meshes: the grid cannot resolve this film: use more points (about {:.2g} "
-      "per side for {:g} meshes there) or a smaller domain",
+      "wide, {:.2g} meshes: the grid cannot resolve this film: use more points (at least about "
+      "{:.2g} per side, for {:g} meshes there) or a smaller domain",
       formula_central_film(c), zone, meshes, points, kElasticHintMeshes);
 }
 
