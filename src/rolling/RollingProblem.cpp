@@ -554,7 +554,8 @@ constexpr double kElasticHintMeshes = 2.0;
 /// Why an elastic run failed when its film is below the grid's resolution
 /// (kElasticMinMeshes), else "".
 std::string resolution_hint(const RollingConfig& c, double mesh) {
-  const double zone = std::pow(formula_central_film(c), 2.0 / 3.0);
+  const double hc = formula_central_film(c);
+  const double zone = std::pow(hc, 2.0 / 3.0);
   const double meshes = zone / mesh;
   if (!(meshes < kElasticMinMeshes)) return {};
   const double points = (c.x_max - c.x_min) * kElasticHintMeshes / zone + 1.0;
@@ -562,7 +563,7 @@ std::string resolution_hint(const RollingConfig& c, double mesh) {
       "; the formula's film Hc = {:.3g} makes the inlet and outlet zones about Hc^(2/3) = {:.3g} "
       "wide, {:.2g} meshes: the grid cannot resolve this film: use more points (at least about "
       "{:.2g} per side, for {:g} meshes there) or a smaller domain",
-      formula_central_film(c), zone, meshes, points, kElasticHintMeshes);
+      hc, zone, meshes, points, kElasticHintMeshes);
 }
 
 /// What else to try when an elastic contact's iteration ran out of cycles
@@ -592,10 +593,12 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
                                        : std::string();
     if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty() &&
           unresolved.empty())) {
-      std::string why = unresolved;
+      std::string why;
       if (!c.elastic) {
         why = rigid_hint(c, impl_->grid.h());
-      } else if (domain.empty() && out_of_cycles && unresolved.empty()) {
+      } else if (!unresolved.empty()) {
+        why = unresolved;
+      } else if (domain.empty() && out_of_cycles) {
         why = relaxation_hint(c, false);
       }
       throw RollingFailure(e.what() + domain + why);
