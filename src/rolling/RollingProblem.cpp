@@ -509,6 +509,50 @@ namespace {
 /// L = 0 on 257^2: 0.7 meshes).  M = 10, L = 0 converges with 6 on 129^2.
 constexpr double kRigidMinMeshes = 3.0;
 
+/// Outside a dry Hertzian contact the gap grows as (R - 1)^(3/2), so an elastic
+/// film's inlet and outlet zones, where the gap is of the order of the film,
+/// are about Hc^(2/3) wide.  Below one mesh there the iteration fails (a
+/// negative film, or the force balance or the iteration diverging) and a
+/// second deformation update cannot help; the films that converge span about
+/// 1.5 meshes or more (M = 1000, L = 0 on 257^2 and L = 5 on 129^2; random
+/// cases with M from 100 to 1e7, docs/validation.md, "Random cases").
+constexpr double kElasticMinMeshes = 1.0;
+/// The meshes that the hint asks for at least: a little more than the finest
+/// films converged have (19 of 21 random films with 2 or more converged).
+constexpr double kElasticHintMeshes = 2.0;
+
+/// The zone of the formula's film that the finest grid must resolve, by body.
+struct FilmZone {
+  double hc;           ///< the formula's central film (rigid or elastic)
+  double width;        ///< the zone's width
+  double min_meshes;   ///< below this many meshes across it no run converged
+  double hint_meshes;  ///< the meshes across it that the hint asks for
+  const char* name;    ///< the zone and its width's measure, for messages
+};
+
+FilmZone film_zone(const RollingConfig& c) {
+  const double hc = formula_central_film(c);
+  if (c.elastic)
+    return {hc, std::pow(hc, 2.0 / 3.0), kElasticMinMeshes, kElasticHintMeshes,
+            "the inlet and outlet zones about Hc^(2/3)"};
+  return {hc, std::sqrt(2.0 * hc), kRigidMinMeshes, kRigidMinMeshes,
+          "the pressure zone about sqrt(2 Hc)"};
+}
+
+/// Why a run failed when its film is below the grid's resolution (fewer
+/// meshes across its FilmZone than min_meshes), else "".
+std::string resolution_hint(const RollingConfig& c, double mesh) {
+  const FilmZone zone = film_zone(c);
+  const double meshes = zone.width / mesh;
+  if (!(meshes < zone.min_meshes)) return {};
+  const double points = (c.x_max - c.x_min) * zone.hint_meshes / zone.width + 1.0;
+  return fmt::format(
+      "; the {}formula's film Hc = {:.3g} makes {} = {:.3g} wide, {:.2g} meshes: the grid cannot "
+      "resolve this film: use more points (at least about {:.2g} per side, for {:g} meshes "
+      "there) or a smaller domain",
+      c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes, points, zone.hint_meshes);
+}
+
 /// Why a rigid run failed, for its message: its film unresolved, or a
 /// pressure-dependent viscosity whose steady film does not exist above a
 /// bound on alpha_bar (docs/validation.md, "Rigid bodies"; the bounds quoted
@@ -516,13 +560,7 @@ constexpr double kRigidMinMeshes = 3.0;
 /// from the isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the
 /// integral of -ln(1 - P / P_max) and F the load).
 std::string rigid_hint(const RollingConfig& c, double mesh) {
-  const double hc = formula_central_film(c);
-  const double meshes = std::sqrt(2.0 * hc) / mesh;
-  if (meshes < kRigidMinMeshes)
-    return fmt::format(
-        "; rigid bodies: the pressure zone, about sqrt(2 Hc) = {:.3g} with the rigid formula's "
-        "Hc = {:.3g}, spans {:.2g} meshes: use more points (grid.points) or a smaller domain",
-        std::sqrt(2.0 * hc), hc, meshes);
+  if (std::string unresolved = resolution_hint(c, mesh); !unresolved.empty()) return unresolved;
   if (c.L > 0.0)
     return fmt::format(
         "; rigid bodies with a pressure-dependent viscosity have a steady film only below a bound "
@@ -537,33 +575,6 @@ std::string rigid_hint(const RollingConfig& c, double mesh) {
 /// How the relaxation updates the deformation, for messages.
 std::string update_text(bool each_colour) {
   return each_colour ? "before each colour of the relaxation" : "once per sweep";
-}
-
-/// Outside a dry Hertzian contact the gap grows as (R - 1)^(3/2), so an elastic
-/// film's inlet and outlet zones, where the gap is of the order of the film,
-/// are about Hc^(2/3) wide.  Below one mesh there the iteration fails (a
-/// negative film, or the force balance or the iteration diverging) and a
-/// second deformation update cannot help; the films that converge span about
-/// 1.5 meshes or more (M = 1000, L = 0 on 257^2 and L = 5 on 129^2; random
-/// cases with M from 100 to 1e7, docs/validation.md, "Random cases").
-constexpr double kElasticMinMeshes = 1.0;
-/// The meshes that the hint asks for at least: a little more than the finest
-/// films converged have (19 of 21 random films with 2 or more converged).
-constexpr double kElasticHintMeshes = 2.0;
-
-/// Why an elastic run failed when its film is below the grid's resolution
-/// (kElasticMinMeshes), else "".
-std::string resolution_hint(const RollingConfig& c, double mesh) {
-  const double hc = formula_central_film(c);
-  const double zone = std::pow(hc, 2.0 / 3.0);
-  const double meshes = zone / mesh;
-  if (!(meshes < kElasticMinMeshes)) return {};
-  const double points = (c.x_max - c.x_min) * kElasticHintMeshes / zone + 1.0;
-  return fmt::format(
-      "; the formula's film Hc = {:.3g} makes the inlet and outlet zones about Hc^(2/3) = {:.3g} "
-      "wide, {:.2g} meshes: the grid cannot resolve this film: use more points (at least about "
-      "{:.2g} per side, for {:g} meshes there) or a smaller domain",
-      hc, zone, meshes, points, kElasticHintMeshes);
 }
 
 /// What else to try when an elastic contact's iteration ran out of cycles
