@@ -71,8 +71,14 @@ TEST(RunGuards, BoundsFollowFromTheEnergy) {
   const RunBounds fast = run_bounds(c, 0.01, 0.0);
   EXPECT_NEAR(fast.min_delta / b.min_delta, std::pow(2.0, 0.8), 1e-12);
   EXPECT_NEAR(fast.max_speed / b.max_speed, 2.0, 1e-12);
-  // Stored elastic energy at T = 0 raises the energy the bounds allow.
+  // The force bound is the most force the energy can hold spread over the
+  // domain: it grows as the root of the energy and of the domain's width.
+  EXPECT_NEAR(fast.max_force / b.max_force, 2.0, 1e-12);
   c.V0 = 1.0;
+  c.half_width = 4.0 * ImpactConfig{}.half_width;
+  EXPECT_NEAR(run_bounds(c, 0.01, 0.0).max_force / b.max_force, 2.0, 1e-12);
+  c.half_width = ImpactConfig{}.half_width;
+  // Stored elastic energy at T = 0 raises the energy the bounds allow.
   EXPECT_GT(run_bounds(c, 0.01, 0.1).max_speed, b.max_speed);
   // Rigid bodies store no elastic energy: nothing bounds their viscous force.
   c.elastic = false;
@@ -393,6 +399,41 @@ TEST(CaseMap, StartingFurtherAwayResolvesTheViscousStart) {
   const Result r = map_run(dir, 65, "--set case.M=1 --set time.Delta0=2");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(results_of(dir).at("outcome"), "lift_off");
+}
+
+TEST(CaseMap, AStartThatStoresMoreThanTheImpactEnergyWarnsAndKeepsItsEnergyBound) {
+  // V0 = Delta0 = 1e-3: the film at T = 0 holds 15 times the impact energy in
+  // the solids, and the rebound took it back (3.0 V0) with no word before.
+  // The energy bound still holds: V <= sqrt(1 + stored share) V0.
+  TempDir dir;
+  const Result r = ehlsim(
+      "impact --set grid.points=33 --set time.V0=1e-3 --set time.Delta0=1e-3 "
+      "--out " +
+      quote((dir / "run").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("ehlsim: warning: the film at T = 0 stores "), std::string::npos) << r.err;
+  const nlohmann::json res = results_of(dir);
+  ASSERT_EQ(res.at("warnings").size(), 1u);
+  const double V0 = 1e-3;
+  const double share = res.at("initial_elastic_energy").get<double>() / (0.5 * V0 * V0);
+  EXPECT_GT(share, kStartEnergyWarning);
+  const double V = res.at("rebound_speed").get<double>();
+  EXPECT_GT(V, V0);                                  // the stored energy came back ...
+  EXPECT_LT(V, std::sqrt(1.0 + share) * V0 * 1.02);  // ... and no more (2 %: the grid)
+  // The paper's start stores 1 % at most: no such warning (PaperCase... and
+  // DomainEdges check the warnings of M = 100 and M = 1000).
+  EXPECT_TRUE(start_note(0.01 * 0.5, ImpactConfig{}).empty());
+}
+
+TEST(CaseMap, ASlowBallsSqueezeFilmIsNotTakenForADivergedOne) {
+  // V0 = 1e-6 from Delta0 = 0.01: the squeeze film spreads its force wider
+  // than a Hertz contact, 6.4 times the dry force of the run's energy at the
+  // first step, and the bound of 4 dry forces ended the run as "diverged".
+  // The bound is now the most force the energy can hold on the domain.
+  TempDir dir;
+  const Result r = map_run(dir, 33, "--set time.V0=1e-6 --set time.Delta0=0.01 --set time.T_end=1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(results_of(dir).at("outcome"), "t_end");
 }
 
 // ---------------------------------------------------------------------------

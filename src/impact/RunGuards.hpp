@@ -140,8 +140,21 @@ inline constexpr double kEdgeImpulseWarning = 0.01;
 /// sentence when the amplitude (surface.waviness_amplitude) is > 0, else "".
 [[nodiscard]] std::string spike_note(double waviness_amplitude);
 
-/// What a finished run should tell its user: domain_note's and spike_note's
-/// sentences, those that apply.
+/// A run whose film at T = 0 stores more than this fraction of the impact
+/// energy V0^2 / 2 in the solids warns: the ball is already braking at
+/// time.Delta0, and the rebound can take that energy back (up to
+/// sqrt(1.05) - 1 = 2.5 % of V0 here).  At Delta0 = 1 on 129^2: M = 10, L = 10
+/// stores 1.3 %, M = 5 10.8 %, M = 2 (L = 0) 24 %; V0 = Delta0 = 1e-3 on 33^2
+/// 1500 % and rebounded at 3.0 V0.
+inline constexpr double kStartEnergyWarning = 0.05;
+
+/// What a start at time.Delta0 means for the rebound: a sentence when the
+/// film at T = 0 stores more than kStartEnergyWarning of the impact energy in
+/// the solids (in m v0^2, as RunSummary::initial_elastic_energy), else "".
+[[nodiscard]] std::string start_note(double initial_elastic_energy, const ImpactConfig& c);
+
+/// What a finished run should tell its user: start_note's, domain_note's and
+/// spike_note's sentences, those that apply.
 [[nodiscard]] std::vector<std::string> run_warnings(const RunSummary& s, const ImpactConfig& c);
 
 }  // namespace ehlsim
