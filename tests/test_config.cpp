@@ -518,6 +518,11 @@ TEST(RegistryErrors, InconsistentCombinations) {
   EXPECT_EQ(set_error({"solver.post_sweeps=21"}),
             "solver.post_sweeps = 21: must be in [0, 20] (--set)");
   EXPECT_EQ(set_error({"time.V0=1e300"}), "time.V0 = 1e+300: must be in [1e-06, 1e+06] (--set)");
+  // 1e308 degrees overflowed in radians: a NaN film even at amplitude 0, or
+  // the wavelength blamed with a NaN bound.
+  EXPECT_EQ(set_error({"surface.waviness_angle_deg=1e308"}),
+            "surface.waviness_angle_deg = 1e+308: must be in [-360, 360] (--set)");
+  EXPECT_NO_THROW(load_config(std::nullopt, {"surface.waviness_angle_deg=-360"}));
   // A profile resampled ever finer grew without bound (1e-7: 12 GB in 18 s).
   EXPECT_EQ(set_error({"spike.resample_meshes=1e-7"}),
             "spike.resample_meshes = 1e-07: must be in [0.01, 1] (--set)");

@@ -33,6 +33,8 @@ const double kDefaultHalfWidth = kDefaults.half_width;
 const double kDefaultDelta0 = kDefaults.Delta0;
 const double kDefaultV0 = kDefaults.V0;
 const double kDefaultWavelength = kDefaults.waviness_wavelength;
+/// The waviness angle's range, [-kFullTurnDeg, kFullTurnDeg] degrees.
+constexpr double kFullTurnDeg = 360.0;
 const int kDefaultSnapshotEvery = kDefaults.snapshot_every;
 constexpr std::string_view kSymmetryAuto = "auto";
 constexpr std::string_view kSymmetryOff = "off";
@@ -168,7 +170,10 @@ void add_surface_parameters(std::vector<ParameterSpec>& r) {
   r.push_back(real("surface.waviness_wavelength", kDefaultWavelength, "", above(0), kUnbounded, "",
                    "wavelength of the waviness; with an amplitude, more than two meshes along the "
                    "wave (else the grid samples another wave)"));
-  r.push_back(real("surface.waviness_angle_deg", 0.0, "", kUnbounded, kUnbounded, "deg",
+  // One turn either way names every direction; beyond, a huge angle overflowed
+  // in its conversion to radians (1e308 deg: a NaN film at amplitude 0).
+  r.push_back(real("surface.waviness_angle_deg", 0.0, "", at_least(-kFullTurnDeg),
+                   at_most(kFullTurnDeg), "deg",
                    "direction of the waviness wave vector, from the X axis"));
 }
 
