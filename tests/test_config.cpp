@@ -99,13 +99,24 @@ TEST(RegistryErrors, TheDryContactMustFitTheDomainAndSpanFourTimeSteps) {
             "run needs at least 4 steps in it (--set)");
   EXPECT_EQ(load_config(std::nullopt, {"time.dT=0.8"}).dT, 0.8);
   // The mesh is the default time step.
-  EXPECT_EQ(set_error({"grid.points=33", "grid.half_width=50"}),
-            "grid.half_width = 50: gives a mesh, and so a default time.dT, of 3.125; it must be <= "
+  EXPECT_EQ(set_error({"grid.points=33", "grid.half_width=14"}),
+            "grid.half_width = 14: gives a mesh, and so a default time.dT, of 0.875; it must be <= "
             "0.8045 (the dry contact at time.V0 = 1 lasts 3.218, and a run needs at least 4 steps "
             "in it): set time.dT or use a finer mesh (--set)");
   EXPECT_EQ(
-      load_config(std::nullopt, {"grid.points=33", "grid.half_width=50", "time.dT=0.1"}).half_width,
-      50.0);
+      load_config(std::nullopt, {"grid.points=33", "grid.half_width=14", "time.dT=0.1"}).half_width,
+      14.0);
+  // A mesh wider than the contact's radius cannot resolve it, whatever the time step.
+  EXPECT_EQ(set_error({"grid.points=33", "grid.half_width=50", "time.dT=0.1"}),
+            "grid.half_width = 50: gives a mesh of 3.125, not below the wider of the squeeze film "
+            "at the start, sqrt(2 time.Delta0) = 1.414, and the largest radius of the dry contact "
+            "at time.V0 = 1, 1.046: the grid cannot resolve the film; use more points or a "
+            "smaller domain (--set)");
+  // A rigid ball has no dry contact, but a squeeze film to resolve.
+  EXPECT_EQ(set_error({"body.elastic=false", "grid.points=33", "grid.half_width=100"}),
+            "grid.half_width = 100: gives a mesh of 6.25, not below the width of the squeeze film "
+            "at the start, sqrt(2 time.Delta0) = 1.414: the grid cannot resolve the film; use "
+            "more points or a smaller domain (--set)");
   // A rigid ball has no dry contact.
   EXPECT_EQ(load_config(std::nullopt, {"body.elastic=false", "grid.half_width=0.5"}).half_width,
             0.5);
@@ -523,6 +534,9 @@ TEST(RegistryErrors, InconsistentCombinations) {
   EXPECT_EQ(set_error({"surface.waviness_angle_deg=1e308"}),
             "surface.waviness_angle_deg = 1e+308: must be in [-360, 360] (--set)");
   EXPECT_NO_THROW(load_config(std::nullopt, {"surface.waviness_angle_deg=-360"}));
+  // A mesh wider than the dry contact cannot resolve it (1e300: "too viscous" at T = 0).
+  EXPECT_EQ(set_error({"grid.half_width=1e300", "time.dT=0.01"}).substr(0, 52),
+            "grid.half_width = 1e+300: gives a mesh of 7.813e+297");
   // A profile resampled ever finer grew without bound (1e-7: 12 GB in 18 s).
   EXPECT_EQ(set_error({"spike.resample_meshes=1e-7"}),
             "spike.resample_meshes = 1e-07: must be in [0.01, 1] (--set)");

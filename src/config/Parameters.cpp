@@ -436,10 +436,38 @@ void check_waviness_resolved(const Inputs& in, const ImpactConfig& c) {
 /// grids).
 constexpr double kMinStepsPerDryContact = 4.0;
 
+/// The grid must resolve the film's pressure zone: the squeeze film at the
+/// start, about sqrt(2 Delta0) wide (the gap doubles there), or an elastic
+/// ball's dry contact (its largest radius), the wider of the two.  With a mesh
+/// wider than both nothing is resolved: grid.half_width = 1e300 (time.dT =
+/// 0.01) ended at T = 0 as a film "too viscous"; V0 = Delta0 = 1e-3 on 33^2
+/// (mesh 0.094, zones 0.045 and 0.066) rebounded at 3.0 V0, on 65^2 and 129^2
+/// at 3.6 and 3.7 V0.
+void check_mesh_resolves_the_film(const Inputs& in, const ImpactConfig& c) {
+  const double film = std::sqrt(2.0 * c.Delta0);
+  const double contact = c.elastic ? dry_largest_contact_radius(c.V0) : 0.0;
+  const double mesh = Grid2D(c.grid_points, c.half_width).h();
+  if (mesh < std::max(film, contact)) return;
+  const std::string zones =
+      c.elastic ? fmt::format(
+                      "the wider of the squeeze film at the start, sqrt(2 time.Delta0) = "
+                      "{:.4g}, and the largest radius of the dry contact at time.V0 = "
+                      "{:g}, {:.4g}",
+                      film, c.V0, contact)
+                : fmt::format(
+                      "the width of the squeeze film at the start, sqrt(2 time.Delta0) "
+                      "= {:.4g}",
+                      film);
+  in.fail(in.has("grid.half_width") ? "grid.half_width" : "grid.points",
+          fmt::format("gives a mesh of {:.4g}, not below {}: the grid cannot resolve the film; "
+                      "use more points or a smaller domain",
+                      mesh, zones));
+}
+
 /// An elastic ball's dry contact must fit into the domain, and its duration
-/// must span kMinStepsPerDryContact time steps: else the run can only fail or
-/// give a result of the discretisation (model.md, "Reference values").  A
-/// rigid ball has no dry contact.
+/// must span kMinStepsPerDryContact time steps: else the run can only fail
+/// or give a result of the discretisation (model.md, "Reference values").  A rigid ball has no dry
+/// contact.
 void check_dry_contact_resolved(const Inputs& in, const ImpactConfig& c) {
   if (!c.elastic) return;
   const double radius = dry_largest_contact_radius(c.V0);
@@ -514,6 +542,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   check_waviness_resolved(in, c);
   check_undeformed_gap(in, c);
   check_dry_contact_resolved(in, c);
+  check_mesh_resolves_the_film(in, c);
   check_step_count(in, c);
 }
 

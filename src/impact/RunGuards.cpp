@@ -185,19 +185,37 @@ void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
         "towards solver.tolerance = {:g}): raise solver.max_cycles or solver.tolerance",
         c.Delta0, c.max_cycles, residual, s.rate, c.tolerance));
   }
-  const std::string estimate =
-      c.viscosity == ViscosityModel::Barus
+  const std::string state = fmt::format(
+      "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge "
+      "(residual {}, force {})",
+      c.Delta0, finite_or_text(residual, "{:.3g}"), finite_or_text(force, "{:.3g}"));
+  // A film without a bounded pressure is blamed only where one may be missing:
+  // a Roelands film, or a Barus film closer than the rigid estimate allows.
+  const double estimate = c.alpha_bar * c.lambda_bar * c.V0 / 4.0;
+  const bool barus = c.viscosity == ViscosityModel::Barus;
+  if (!barus || c.Delta0 * c.Delta0 <= estimate) {
+    const std::string why = barus
+                                ? fmt::format(
+                                      " (rigid Barus film: the pressure diverges unless Delta0^2 > "
+                                      "alpha_bar lambda_bar V0 / 4 = {:.3g})",
+                                      estimate)
+                                : std::string();
+    throw RunFailure(fmt::format(
+        "{}: the film is too viscous for the ball to arrive there at time.V0 = {:g}{}; start "
+        "further away (a larger time.Delta0)",
+        state, c.V0, why));
+  }
+  const std::string bounded =
+      c.alpha_bar > 0.0
           ? fmt::format(
-                " (rigid Barus film: the pressure diverges unless Delta0^2 > alpha_bar "
-                "lambda_bar V0 / 4 = {:.3g})",
-                c.alpha_bar * c.lambda_bar * c.V0 / 4.0)
-          : std::string();
+                "the rigid Barus estimate (Delta0^2 = {:.3g} > alpha_bar lambda_bar V0 / 4 "
+                "= {:.3g}) says its pressure is bounded",
+                c.Delta0 * c.Delta0, estimate)
+          : std::string("an isoviscous film has a bounded pressure at any start");
   throw RunFailure(fmt::format(
-      "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} did not converge (residual "
-      "{}, force {}): the film is too viscous for the ball to arrive there at time.V0 = "
-      "{:g}{}; start further away (a larger time.Delta0)",
-      c.Delta0, finite_or_text(residual, "{:.3g}"), finite_or_text(force, "{:.3g}"), c.V0,
-      estimate));
+      "{} in solver.max_cycles = {} cycles, although {}: the solver did not converge it; raise "
+      "solver.max_cycles, or check the solver's settings (solver.*) and the grid",
+      state, c.max_cycles, bounded));
 }
 
 void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {

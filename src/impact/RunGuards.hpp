@@ -144,8 +144,8 @@ inline constexpr double kEdgeImpulseWarning = 0.01;
 /// energy V0^2 / 2 in the solids warns: the ball is already braking at
 /// time.Delta0, and the rebound can take that energy back (up to
 /// sqrt(1.05) - 1 = 2.5 % of V0 here).  At Delta0 = 1 on 129^2: M = 10, L = 10
-/// stores 1.3 %, M = 5 10.8 %, M = 2 (L = 0) 24 %; V0 = Delta0 = 1e-3 on 33^2
-/// 1500 % and rebounded at 3.0 V0.
+/// stores 1.3 %, M = 5 10.8 %, M = 2 (L = 0) 24 %; V0 = Delta0 = 1e-3 on 65^2
+/// 1980 % and rebounded at 3.6 V0.
 inline constexpr double kStartEnergyWarning = 0.05;
 
 /// What a start at time.Delta0 means for the rebound: a sentence when the
