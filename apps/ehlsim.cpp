@@ -297,6 +297,13 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
                                   "'{}', T = {:.6g}",
                                   config.T_end, options.restart_file, checkpoint->state.ball.T),
                       "time.T_end");
+  // Likewise a cap the checkpoint has reached (time.max_steps = 10 from step 85).
+  const int done = checkpoint->state.step;
+  if (!std::isfinite(config.T_end) && config.max_steps > 0 && config.max_steps <= done)
+    throw ConfigError(fmt::format("time.max_steps = {}: must be more than the steps of checkpoint "
+                                  "'{}', {}",
+                                  config.max_steps, options.restart_file, done),
+                      "time.max_steps");
   return kExitOk;
 }
 

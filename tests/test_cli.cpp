@@ -317,6 +317,13 @@ TEST(Cli, RestartFromACheckpoint) {
                                   quote(checkpoint.string())),
       fmt::format("time.T_end = 0.01: must be later than the time of checkpoint '{}', T = {:.6g}",
                   checkpoint.string(), run.at("invocation").at("restart").at("T").get<double>()));
+  // Nor a cap it has reached (it ran one step and ended with exit 1).
+  expect_bad_input(
+      tiny_run(dir / "capped",
+               "--set body.elastic=false --set time.T_end=inf --set time.max_steps=1 --restart " +
+                   quote(checkpoint.string())),
+      fmt::format("time.max_steps = 1: must be more than the steps of checkpoint '{}', {}",
+                  checkpoint.string(), step));
   const fs::path not_a_checkpoint = second / "timeseries.csv";
   r = tiny_run(dir / "fourth",
                "--set body.elastic=false --restart " + quote(not_a_checkpoint.string()));
@@ -325,6 +332,7 @@ TEST(Cli, RestartFromACheckpoint) {
       << r.err;
   EXPECT_FALSE(fs::exists(dir / "third"));
   EXPECT_FALSE(fs::exists(dir / "fourth"));
+  EXPECT_FALSE(fs::exists(dir / "capped"));
 }
 
 TEST(Cli, RestartRefusesADamagedCheckpoint) {
