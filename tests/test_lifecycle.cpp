@@ -1314,4 +1314,30 @@ TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
             nlohmann::json::parse(read_file(plain / "run.json"))["results"]);
 }
 
+TEST(Lifecycle, ARunThatEndedInASubdirectoryMeanwhileIsNotDeleted) {
+  // A run into run/inner, or `ehlsim spike run --out run/gauss`, that ended
+  // while a run into run was going: its files have ehlsim's names and its
+  // lock is gone, and the outer run's swap deleted them with exit 0.
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const std::vector<std::string> args = {
+      "impact", "--quiet",        "--set", "grid.points=33", "--set", "body.elastic=false",
+      "--set",  "time.T_end=0.3", "--out", run.string()};
+  const Child outer = start(args, work / "outer", "publish");
+  ASSERT_TRUE(wait_until_stopped(outer));
+  ASSERT_EQ(run_into(run / "inner", "--set time.T_end=0.1").exit_code, 0);
+  const Result r = resume(outer, 0);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("'" + run.string() + "' gained '" + (run / "inner").string() +
+                       "' during the run (another program or ehlsim run wrote it): it was left "
+                       "as it was"),
+            std::string::npos)
+      << r.err;
+  EXPECT_TRUE(fs::exists(run / "inner" / "run.json"));
+  fs::remove_all(run / "inner");
+  EXPECT_EQ(contents(run), before);  // the earlier run, as it was
+}
+
 }  // namespace

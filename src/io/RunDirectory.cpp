@@ -461,6 +461,7 @@ RunDirectory::RunDirectory(const fs::path& target)
   check_replaceable_run_directory(target_);
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
+  replaced_entries_ = entries_below(resolved_, {});
   fs::create_directory(staging_);
 }
 
@@ -515,6 +516,18 @@ void RunDirectory::check_target_unchanged() const {
       check_replaceable_run_directory(target_);  // a file put there during the run stays
     } catch (const ConfigError& e) {
       throw std::runtime_error(e.what());
+    }
+    // So does a run or an analysis that wrote into a subdirectory of DIR and
+    // ended meanwhile (`ehlsim spike DIR --out DIR/gauss`): its files are
+    // ehlsim's and its lock is gone, but it is not the run this one replaces.
+    for (const CarriedEntry& entry : entries_below(resolved_, {})) {
+      if (std::find(replaced_entries_.begin(), replaced_entries_.end(), entry) ==
+          replaced_entries_.end()) {
+        throw std::runtime_error(fmt::format(
+            "'{}' gained '{}' during the run (another program or ehlsim run wrote it): it was "
+            "left as it was",
+            target_.string(), (target_ / entry.relative).string()));
+      }
     }
   } else if (entries_below(resolved_, replaced_) != carried_) {
     // The swap would drop what came meanwhile, or bring back what went.

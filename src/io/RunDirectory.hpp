@@ -110,8 +110,9 @@ class RunDirectory {
   PathLock lock_;
   std::filesystem::path staging_;
   bool amend_ = false;
-  std::vector<std::string> replaced_;  ///< amendment: the names written anew
-  std::vector<CarriedEntry> carried_;  ///< amendment: what was carried over from DIR
+  std::vector<std::string> replaced_;           ///< amendment: the names written anew
+  std::vector<CarriedEntry> carried_;           ///< amendment: what was carried over from DIR
+  std::vector<CarriedEntry> replaced_entries_;  ///< new run: what DIR held at the start
   bool published_ = false;
 
   /// Throws std::runtime_error when DIR may no longer be replaced by the staging directory.
