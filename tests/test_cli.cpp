@@ -409,7 +409,7 @@ TEST(Cli, BadSpikeKeys) {
       ehlsim("impact --set spike.filter=median"),
       "spike.filter = \"median\": must be one of \"butterworth\", \"gaussian\", \"none\" (--set)");
   expect_bad_input(ehlsim("impact --set spike.smoothing_points=0"),
-                   "spike.smoothing_points = 0: must be >= 1 (--set)");
+                   "spike.smoothing_points = 0: must be in [1, 2147483647] (--set)");
   expect_bad_input(ehlsim("impact --set spike.cutoff_meshes=0.2"),
                    "spike.cutoff_meshes = 0.2: must be > 2 spike.resample_meshes = 0.25 (the "
                    "shortest wave the resampled profile carries) (--set)");

@@ -334,16 +334,19 @@ TEST(RegistryErrors, OutOfRange) {
   EXPECT_EQ(set_error({"case.M=-3"}), "case.M = -3: must be > 0 (--set)");
   EXPECT_EQ(set_error({"case.L=-0.5"}), "case.L = -0.5: must be >= 0 (--set)");
   EXPECT_EQ(set_error({"physical.nu1=0.7"}), "physical.nu1 = 0.7: must be in [0, 0.5] (--set)");
-  EXPECT_EQ(set_error({"solver.max_cycles=0"}), "solver.max_cycles = 0: must be >= 1 (--set)");
+  EXPECT_EQ(set_error({"solver.max_cycles=0"}),
+            "solver.max_cycles = 0: must be in [1, 2147483647] (--set)");
   EXPECT_EQ(set_error({"solver.tolerance=0.1"}),
             "solver.tolerance = 0.1: must be in (0, 0.01] (--set)");
   EXPECT_EQ(set_error({"output.snapshot_times=[1.0, -2.0]"}),
             "output.snapshot_times = [1, -2]: every entry must be >= 0 (--set)");
   EXPECT_EQ(set_error({"case.M=nan"}), "case.M = nan: must be a number > 0 (--set)");
   EXPECT_EQ(set_error({"case.M=inf"}), "case.M = inf: must be a finite number > 0 (--set)");
-  EXPECT_EQ(set_error({"time.T_end=0"}), "time.T_end = 0: must be > 0 (--set)");
+  // The range as the help gives it.
+  EXPECT_EQ(set_error({"time.T_end=0"}), "time.T_end = 0: must be > 0 or inf (--set)");
+  EXPECT_EQ(set_error({"time.T_end=-inf"}), "time.T_end = -inf: must be > 0 or inf (--set)");
   EXPECT_EQ(set_error({"solver.max_cycles=10000000000"}),
-            "solver.max_cycles = 10000000000: is too large (must fit in a 32-bit integer) (--set)");
+            "solver.max_cycles = 10000000000: must be in [1, 2147483647] (--set)");
 }
 
 TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
@@ -399,7 +402,7 @@ TEST(RegistryErrors, WrongType) {
   EXPECT_EQ(set_error({"grid.points=2.5"}),
             "grid.points = 2.5: must be an integer 2^k + 1 between 9 and 4097 (--set)");
   EXPECT_EQ(set_error({"output.snapshot_every=true"}),
-            "output.snapshot_every = true: must be an integer >= 1 (--set)");
+            "output.snapshot_every = true: must be an integer in [1, 2147483647] (--set)");
   EXPECT_EQ(set_error({"lubricant.viscosity=sae30"}),
             "lubricant.viscosity = \"sae30\": must be one of \"barus\", \"roelands\" (--set)");
   EXPECT_EQ(set_error({"solver.cycle=F"}),

@@ -72,7 +72,9 @@ ParameterSpec integer(std::string key, int def, std::optional<Bound> lower,
   s.type = ParameterType::Int;
   s.default_value = def;
   s.lower = lower;
-  s.upper = upper;
+  // An int holds the value: the help and the errors say so (3e9 was refused
+  // as "too large" where the help said ">= 1").
+  s.upper = upper ? upper : at_most(std::numeric_limits<int>::max());
   s.power_of_two_plus_one = power_of_two_plus_one;
   s.doc = std::move(doc);
   return s;
@@ -122,15 +124,18 @@ std::string quoted_list(const std::vector<std::string>& items) {
 }
 
 /// "> 0", ">= 0", "< 1", "in [0, 0.5]", "" for a plain interval.
-std::string interval_text(const std::optional<Bound>& lower, const std::optional<Bound>& upper) {
+/// "in [a, b]", ">= a", ... of the bounds; `whole_numbers` writes them out in full.
+std::string interval_text(const std::optional<Bound>& lower, const std::optional<Bound>& upper,
+                          bool whole_numbers = false) {
+  const auto number = [&](double v) {
+    return whole_numbers ? fmt::format("{:.0f}", v) : format_number(v);
+  };
   if (lower && upper) {
-    return fmt::format("in {}{}, {}{}", lower->inclusive ? "[" : "(", format_number(lower->value),
-                       format_number(upper->value), upper->inclusive ? "]" : ")");
+    return fmt::format("in {}{}, {}{}", lower->inclusive ? "[" : "(", number(lower->value),
+                       number(upper->value), upper->inclusive ? "]" : ")");
   }
-  if (lower)
-    return fmt::format("{} {}", lower->inclusive ? ">=" : ">", format_number(lower->value));
-  if (upper)
-    return fmt::format("{} {}", upper->inclusive ? "<=" : "<", format_number(upper->value));
+  if (lower) return fmt::format("{} {}", lower->inclusive ? ">=" : ">", number(lower->value));
+  if (upper) return fmt::format("{} {}", upper->inclusive ? "<=" : "<", number(upper->value));
   return {};
 }
 
@@ -168,7 +173,8 @@ std::string ParameterSpec::allowed() const {
         return fmt::format("2^k + 1 between {} and {}", format_number(lower->value),
                            format_number(upper->value));
       }
-      const std::string range = interval_text(lower, upper);
+      // Whole numbers written out (2147483647, not 2.14748e+09).
+      const std::string range = interval_text(lower, upper, /*whole_numbers=*/true);
       return range.empty() ? "an integer" : range;
     }
     case ParameterType::Float: {
@@ -307,10 +313,13 @@ ParameterValue convert_float(const ParameterSpec& spec, const toml::node& node,
   const std::string range = interval_text(spec.lower, spec.upper);
   const std::optional<double> v = number_of(node);
   if (!v || std::isnan(*v)) fail("must be a number" + with_space(range));
+  // As the help writes it: "> 0 or inf" where inf is allowed.
+  const std::string allowed = spec.allow_infinite ? range + " or inf" : range;
   if (std::isinf(*v) && !(spec.allow_infinite && *v > 0)) {
-    fail("must be a finite number" + with_space(range));
+    fail(spec.allow_infinite ? "must be " + allowed
+                             : "must be a finite number" + with_space(range));
   }
-  if (!in_interval(spec.lower, spec.upper, *v)) fail("must be " + range);
+  if (!in_interval(spec.lower, spec.upper, *v)) fail("must be " + allowed);
   return *v;
 }
 
@@ -329,7 +338,7 @@ ParameterValue convert_int(const ParameterSpec& spec, const toml::node& node,
   }
   const bool fits = *v >= static_cast<double>(std::numeric_limits<int>::min()) &&
                     *v <= static_cast<double>(std::numeric_limits<int>::max());
-  if (!fits) fail("is too large (must fit in a 32-bit integer)");
+  if (!fits) fail("must be " + spec.allowed());
   const bool ok = in_interval(spec.lower, spec.upper, *v) &&
                   (!spec.power_of_two_plus_one || is_power_of_two_plus_one(static_cast<long>(*v)));
   if (!ok) fail("must be " + spec.allowed());
