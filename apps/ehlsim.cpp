@@ -199,11 +199,30 @@ struct KeptCheckpoint {
   bool written = false;  ///< by this run (DIR.checkpoint.nc)
 };
 
+/// The last time step a run completed, for the message of a failure that
+/// does not name one (a full disk, a file that cannot be written).
+class LastStep final : public ImpactObserver {
+ public:
+  void on_step(const StepRecord& record, const Field&, const Field&, bool) override {
+    step_ = record.step;
+    T_ = record.T;
+  }
+  /// "after time step N (T = ...): ", or "before the first time step: ".
+  [[nodiscard]] std::string where() const {
+    return step_ > 0 ? fmt::format("after time step {} (T = {:.6g}): ", step_, T_)
+                     : std::string("before the first time step: ");
+  }
+
+ private:
+  int step_ = 0;
+  double T_ = 0.0;
+};
+
 /// Runs the case into the staging directory of `run_dir` and publishes it.
 /// Throws RunInterrupted after a signal, with the checkpoint written.
 RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
                     std::optional<Checkpoint>& checkpoint, RunDirectory& run_dir,
-                    const nlohmann::json& invocation, KeptCheckpoint& kept) {
+                    const nlohmann::json& invocation, KeptCheckpoint& kept, LastStep& last) {
   const nlohmann::json parameters = effective_parameters_json(config);
   // spike.csv first: run.json, written last by RunOutput, marks a complete run.
   SpikeOutput spike(run_dir.staging(), config);
@@ -213,7 +232,7 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   // the user fixed it with OMP_NUM_THREADS (io/ThreadBudget.hpp).
   ThreadBudget threads(omp_get_max_threads());
   StopOnSignal stop;
-  std::vector<ImpactObserver*> chain{&spike, &output, &stop};
+  std::vector<ImpactObserver*> chain{&last, &spike, &output, &stop};
   if (!user_set_thread_count()) chain.push_back(&threads);
   ObserverChain observers(chain);
   ImpactProblem problem(config);
@@ -331,8 +350,9 @@ int run_impact(const ImpactOptions& options) {
   // from the one it started from.
   KeptCheckpoint kept;
   if (checkpoint) kept = {checkpoint->state.step, options.restart_file, false};
+  LastStep last;
   try {
-    simulate(options, config, checkpoint, *run_dir, invocation, kept);
+    simulate(options, config, checkpoint, *run_dir, invocation, kept, last);
   } catch (const RunInterrupted& e) {
     run_dir.reset();  // the partial files go; the checkpoint stays
     const int signal = InterruptGuard::received();
@@ -353,15 +373,19 @@ int run_impact(const ImpactOptions& options) {
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
-    if (kept.step == 0) throw;
     run_dir.reset();
-    // A failure of the solution repeats, bit for bit, from the checkpoint
-    // unless a setting changes; one of the disk does not.
+    // A failure of the solution names its step and repeats, bit for bit, from
+    // the checkpoint unless a setting changes; one of the disk does neither.
     const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
+    const std::string what = (repeats ? std::string() : last.where()) + e.what();
+    if (kept.step == 0) {
+      print_error(what);
+      return kExitFailure;
+    }
     const std::string change =
         repeats ? fmt::format("with a change a restart allows ({}), ", kRestartMayChange) : "";
-    print_error(fmt::format("{}; {}resume from the checkpoint of step {} with: {}", e.what(),
-                            change, kept.step, resume_command(options, kept.path)));
+    print_error(fmt::format("{}; {}resume from the checkpoint of step {} with: {}", what, change,
+                            kept.step, resume_command(options, kept.path)));
     return kExitFailure;
   }
   return kExitOk;

@@ -336,7 +336,8 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
                          quote(run.string()));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_TRUE(r.err.starts_with("ehlsim: error: cannot write '")) << r.err;
+  EXPECT_TRUE(r.err.starts_with("ehlsim: error: before the first time step: cannot write '"))
+      << r.err;
   EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});
@@ -492,29 +493,39 @@ void expect_eio_case(const std::string& tag, const InjectedEio& eio, const std::
 }
 
 TEST(Lifecycle, AnIOErrorInFieldsNcEndsWithOneLineNamingIt) {
-  const std::string file = "ehlsim: error: cannot write 'WORK/.run.part-PID/fields.nc.part': ";
+  // The line names the last step the run completed, and the file.
+  const std::string file = "cannot write 'WORK/.run.part-PID/fields.nc.part': ";
   // At once: HDF5 cannot create the file (NetCDF says EACCES; errno has the reason).
-  expect_eio_case("create", {"fields.nc", 0}, "", file + "nc_create: Input/output error\n");
-  // In the middle: each snapshot's child writes it when it closes the file.
+  expect_eio_case(
+      "create", {"fields.nc", 0}, "",
+      "ehlsim: error: before the first time step: " + file + "nc_create: Input/output error\n");
+  // In the middle: each snapshot's child writes it when it closes the file
+  // (the snapshots are held until the run ends: kFieldBatchBytes).
+  const std::string at_the_end = "ehlsim: error: after time step 80 (T = 0.8): ";
   expect_eio_case("middle", {"fields.nc", 300'000}, "",
-                  file + "nc_close (Input/output error): NetCDF: HDF error\n");
+                  at_the_end + file + "nc_close (Input/output error): NetCDF: HDF error\n");
   // Everything written, the sync before the rename fails.
   expect_eio_case("fsync", {"fields.nc", 0, true}, "",
-                  "ehlsim: error: cannot sync 'WORK/.run.part-PID/fields.nc.part' to "
-                  "disk: Input/output error\n");
+                  at_the_end +
+                      "cannot sync 'WORK/.run.part-PID/fields.nc.part' to disk: Input/output "
+                      "error\n");
 }
 
 TEST(Lifecycle, AnIOErrorInACsvFileEndsWithOneLineNamingIt) {
   const std::string message =
-      "ehlsim: error: cannot write 'WORK/.run.part-PID/timeseries.csv.part': Input/output error\n";
+      "cannot write 'WORK/.run.part-PID/timeseries.csv.part': Input/output error\n";
   // The first 8 kB, during the run (CsvWriter::append).
-  expect_eio_case("append", {"timeseries.csv", 0}, "", message);
+  expect_eio_case("append", {"timeseries.csv", 0}, "",
+                  "ehlsim: error: after time step 64 (T = 0.64): " + message);
   // The last 2 kB, flushed at the end (CsvWriter::commit).
-  expect_eio_case("commit", {"timeseries.csv", 9000}, "", message);
+  expect_eio_case("commit", {"timeseries.csv", 9000}, "",
+                  "ehlsim: error: after time step 80 (T = 0.8): " + message);
 }
 
 TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
-  const std::string file = "ehlsim: error: cannot write checkpoint 'WORK/run.checkpoint.nc.part': ";
+  const std::string file =
+      "ehlsim: error: after time step 20 (T = 0.2): cannot write checkpoint "
+      "'WORK/run.checkpoint.nc.part': ";
   const std::string options = "--set output.checkpoint_every=20";
   expect_eio_case("create", {"checkpoint.nc", 0}, options,
                   file + "nc_create: Input/output error\n");
@@ -532,7 +543,8 @@ TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   const fs::path kept = work / "run.checkpoint.nc";
   EXPECT_TRUE(
-      r.err.starts_with("ehlsim: error: cannot write checkpoint '" + kept.string() + ".part': "))
+      r.err.starts_with("ehlsim: error: after time step 40 (T = 0.4): cannot write checkpoint '" +
+                        kept.string() + ".part': "))
       << r.err;
   EXPECT_NE(r.err.find("(Input/output error): NetCDF: HDF error; resume from the checkpoint of "
                        "step 20 with: "),
@@ -551,9 +563,9 @@ TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
 /// with its report's exit status 1 instead of the signal.
 TEST(Lifecycle, AFailedLastWriteOfANetcdfFileIsAnErrorNotACrash) {
   // `file` the start of the message: "checkpoint 'WORK/<partial file>"
-  const auto crashed = [](const std::string& file) {
-    const std::string start =
-        "ehlsim: error: cannot write " + file + "': the NetCDF/HDF5 library crashed writing it (";
+  const auto crashed = [](const std::string& where, const std::string& file) {
+    const std::string start = "ehlsim: error: " + where + "cannot write " + file +
+                              "': the NetCDF/HDF5 library crashed writing it (";
     const std::string why =
         "; HDF5 1.10.8 does when the last write of a file fails, e.g. on an I/O error of the "
         "disk)\n";
@@ -561,13 +573,15 @@ TEST(Lifecycle, AFailedLastWriteOfANetcdfFileIsAnErrorNotACrash) {
   };
   // The first checkpoint (step 20): its superblock writes are its creation,
   // nc_enddef and two at nc_close.
-  expect_eio_case("checkpoint", {"checkpoint.nc", 3, false, kSuperblock},
-                  "--set output.checkpoint_every=20",
-                  crashed("checkpoint 'WORK/run.checkpoint.nc.part"));
+  expect_eio_case(
+      "checkpoint", {"checkpoint.nc", 3, false, kSuperblock}, "--set output.checkpoint_every=20",
+      crashed("after time step 20 (T = 0.2): ", "checkpoint 'WORK/run.checkpoint.nc.part"));
   // fields.nc: its creation, then the first snapshot (opened, written, closed).
-  const std::vector<std::string> fields = crashed("'WORK/.run.part-PID/fields.nc.part");
-  expect_eio_case("fields-created", {"fields.nc", 3, false, kSuperblock}, "", fields);
-  expect_eio_case("fields-snapshot", {"fields.nc", 6, false, kSuperblock}, "", fields);
+  const std::string fields = "'WORK/.run.part-PID/fields.nc.part";
+  expect_eio_case("fields-created", {"fields.nc", 3, false, kSuperblock}, "",
+                  crashed("before the first time step: ", fields));
+  expect_eio_case("fields-snapshot", {"fields.nc", 6, false, kSuperblock}, "",
+                  crashed("after time step 80 (T = 0.8): ", fields));
 }
 
 /// A launcher may start ehlsim with SIGCHLD ignored (inherited through exec):
