@@ -225,6 +225,28 @@ TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
             std::string::npos)
       << r.err;
   EXPECT_EQ(read_file(run / "notes.txt"), "mine\n");
+  fs::remove(run / "notes.txt");
+
+  // A file of the user's that bears a run's name in a subdirectory is no
+  // run's; a nested run and a spike analysis there are ehlsim's.
+  fs::create_directories(run / "a" / "b");
+  std::ofstream(run / "a" / "b" / "fields.nc") << "important\n";
+  r = run_into(run, "--set time.T_end=0.3");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("holds '" + (run / "a" / "b" / "fields.nc").string() +
+                       "', which ehlsim did not write"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_file(run / "a" / "b" / "fields.nc"), "important\n");
+  fs::remove_all(run / "a");
+  ASSERT_EQ(run_into(run / "inner", "--set time.T_end=0.1").exit_code, 0);
+  ASSERT_EQ(
+      ehlsim("spike --quiet " + quote(run.string()) + " --out " + quote((run / "gauss").string()))
+          .exit_code,
+      0);
+  EXPECT_EQ(run_into(run, "--set time.T_end=0.3").exit_code, 0);
+  EXPECT_FALSE(fs::exists(run / "inner"));
+  EXPECT_FALSE(fs::exists(run / "gauss"));
 
   const fs::path file = work / "file";
   std::ofstream(file) << "x";

@@ -25,6 +25,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
+#include "io/RunAnalysis.hpp"
 
 namespace ehlsim {
 
@@ -48,9 +49,9 @@ constexpr int kMaxLinkHops = 40;
 /// rolling run's files by default: made from the run, it goes with it.
 const std::set<std::string, std::less<>>& ehlsim_file_names() {
   static const std::set<std::string, std::less<>> names = {
-      "timeseries.csv", "spike.csv",           "fields.nc",          "run.json",
-      "checkpoint.nc",  "spike_snapshots.csv", "spike_profiles.csv", "axis_profiles.csv",
-      "profile_x.csv",  "profile_y.csv",       "convergence.csv",    "rolling.png"};
+      "timeseries.csv", "spike.csv",         "fields.nc",        "run.json",
+      "checkpoint.nc",  kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile,
+      "profile_x.csv",  "profile_y.csv",     "convergence.csv",  "rolling.png"};
   return names;
 }
 
@@ -107,13 +108,28 @@ bool is_ehlsim_run_json(const fs::path& path) {
          run["program"].is_object() && run["program"].value("name", "") == "ehlsim";
 }
 
+/// True for a file that ehlsim writes into a subdirectory of a run: a
+/// file of a run there (beside an ehlsim run.json), one of `ehlsim spike RUN
+/// --out RUN/DIR` (a spike analysis file), or a lock or partial file.  A file
+/// of the user's that bears a run's name elsewhere (RUN/a/b/fields.nc) is not.
+bool is_ehlsim_file_below(const fs::path& file) {
+  std::string name = file.filename().string();
+  if (!is_ehlsim_file_name(name)) return false;
+  if (is_lock_file_name(name) || is_ehlsim_run_json(file.parent_path() / "run.json")) return true;
+  const std::string_view part = PartialFile::kSuffix;
+  if (name.ends_with(part)) return true;
+  return name == kSpikeSnapshotsFile || name == kSpikeProfilesFile || name == kAxisProfilesFile;
+}
+
 /// The first entry below `dir` that is not a file ehlsim writes ("" if none).
 fs::path first_foreign_entry(const fs::path& dir) {
-  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir)) {
-    if (entry.is_symlink()) return entry.path();
-    if (entry.is_directory()) continue;
-    if (!entry.is_regular_file() || !is_ehlsim_file_name(entry.path().filename().string()))
-      return entry.path();
+  for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator();
+       ++it) {
+    if (it->is_symlink()) return it->path();
+    if (it->is_directory()) continue;
+    const bool ehlsims = it.depth() == 0 ? is_ehlsim_file_name(it->path().filename().string())
+                                         : is_ehlsim_file_below(it->path());
+    if (!it->is_regular_file() || !ehlsims) return it->path();
   }
   return {};
 }
