@@ -491,6 +491,16 @@ int run_reporting_errors(int argc, char** argv) {
   try {
     return run(argc, argv);
   } catch (const ehlsim::ConfigError& e) {
+    // A signal that interrupted the reading of the input (a config file that
+    // is a FIFO no one writes to) ends the command as a signal does, not as
+    // bad input ("Interrupted system call", exit 2).
+    if (const int signal = InterruptGuard::received(); signal != 0) {
+      std::fprintf(stderr,
+                   "ehlsim: interrupted by %s while the input was read (%s): nothing "
+                   "was written\n",
+                   signal_name(signal).c_str(), e.what());
+      return exit_code_for_signal(signal);
+    }
     print_error(e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {

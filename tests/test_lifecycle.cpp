@@ -14,6 +14,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mount.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -1374,6 +1375,27 @@ TEST(Lifecycle, ARunThatEndedInASubdirectoryMeanwhileIsNotDeleted) {
   EXPECT_TRUE(fs::exists(run / "inner" / "run.json"));
   fs::remove_all(run / "inner");
   EXPECT_EQ(contents(run), before);  // the earlier run, as it was
+}
+
+TEST(Lifecycle, ASignalWhileTheConfigIsReadEndsAsASignal) {
+  // A config file that is a FIFO no one writes to blocks its reader; a
+  // SIGTERM there ended as bad input ("Interrupted system call", exit 2).
+  TempDir work;
+  const fs::path fifo = work / "config.toml";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const Child c =
+      start({"impact", fifo.string(), "--out", (work / "run").string()}, work / "impact");
+  // Blocked in the open of the FIFO (the kernel waits for a writer).
+  const fs::path wchan = fs::path("/proc") / std::to_string(c.pid) / "wchan";
+  ASSERT_TRUE(wait_for_text(wchan, "wait_for_partner"));
+  kill(c.pid, SIGTERM);
+  const Result r = result_of(c);
+  EXPECT_EQ(r.exit_code, 143);
+  EXPECT_EQ(r.err,
+            "ehlsim: interrupted by SIGTERM while the input was read (cannot read config "
+            "file '" +
+                fifo.string() + "': Interrupted system call): nothing was written\n");
+  EXPECT_FALSE(fs::exists(work / "run"));
 }
 
 }  // namespace
