@@ -326,6 +326,41 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
   return kExitOk;
 }
 
+/// The one line of a run stopped by a signal between steps; its exit code.
+int report_interrupted(const ImpactOptions& options, const KeptCheckpoint& kept,
+                       const RunInterrupted& e) {
+  const int signal = InterruptGuard::received();
+  if (e.step == 0) {
+    std::fprintf(stderr,
+                 "ehlsim: interrupted by %s before the first step ended; nothing was written to "
+                 "%s\n",
+                 signal_name(signal).c_str(), options.out_dir.c_str());
+  } else {
+    std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
+                 signal_name(signal).c_str(), e.step, e.T,
+                 resume_command(options, kept.path).c_str());
+  }
+  return exit_code_for_signal(signal);
+}
+
+/// The one line of a failed run, with the resume line of its checkpoint; its exit code.
+int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, const LastStep& last,
+                   const std::exception& e) {
+  // A failure of the solution names its step and repeats, bit for bit, from
+  // the checkpoint unless a setting changes; one of the disk does neither.
+  const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
+  const std::string what = (repeats ? std::string() : last.where()) + e.what();
+  if (kept.step == 0) {
+    print_error(what);
+    return kExitFailure;
+  }
+  const std::string change =
+      repeats ? fmt::format("with a change a restart allows ({}), ", kRestartMayChange) : "";
+  print_error(fmt::format("{}; {}resume from the checkpoint of step {} with: {}", what, change,
+                          kept.step, resume_command(options, kept.path)));
+  return kExitFailure;
+}
+
 int run_impact(const ImpactOptions& options) {
   // A signal during the set-up also ends the run cleanly, after its first step (main's guard).
   // Bad input throws ConfigError: exit 2 with its one line (main).
@@ -355,18 +390,7 @@ int run_impact(const ImpactOptions& options) {
     simulate(options, config, checkpoint, *run_dir, invocation, kept, last);
   } catch (const RunInterrupted& e) {
     run_dir.reset();  // the partial files go; the checkpoint stays
-    const int signal = InterruptGuard::received();
-    if (e.step == 0) {
-      std::fprintf(stderr,
-                   "ehlsim: interrupted by %s before the first step ended; nothing was written to "
-                   "%s\n",
-                   signal_name(signal).c_str(), options.out_dir.c_str());
-    } else {
-      std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
-                   signal_name(signal).c_str(), e.step, e.T,
-                   resume_command(options, kept.path).c_str());
-    }
-    return exit_code_for_signal(signal);
+    return report_interrupted(options, kept, e);
   } catch (const PublishInterrupted& e) {
     run_dir.reset();  // the staging directory goes; DIR is as it was
     return report_unpublished(options, kept, e.signal);
@@ -374,19 +398,7 @@ int run_impact(const ImpactOptions& options) {
     throw;
   } catch (const std::exception& e) {
     run_dir.reset();
-    // A failure of the solution names its step and repeats, bit for bit, from
-    // the checkpoint unless a setting changes; one of the disk does neither.
-    const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
-    const std::string what = (repeats ? std::string() : last.where()) + e.what();
-    if (kept.step == 0) {
-      print_error(what);
-      return kExitFailure;
-    }
-    const std::string change =
-        repeats ? fmt::format("with a change a restart allows ({}), ", kRestartMayChange) : "";
-    print_error(fmt::format("{}; {}resume from the checkpoint of step {} with: {}", what, change,
-                            kept.step, resume_command(options, kept.path)));
-    return kExitFailure;
+    return report_failure(options, kept, last, e);
   }
   return kExitOk;
 }
