@@ -11,8 +11,9 @@ and a grid of --grids (by default 65^2 or 129^2); 30 % add waviness (amplitude t
 wavelength 0.3 to 2, any angle), 25 % Roelands, 25 % Dowson-Higginson, 10 % a rigid ball.
 A case is a defect when: the exit code is not 0, 1 or 2; an error is not one line starting
 "ehlsim: error:" (exit 1: naming the time step); an exit 0 leaves a non-finite value or a
-negative film in timeseries.csv, a rebound faster than 1.03 V0, or counts its unconverged
-steps other than timeseries.csv shows.
+negative film in timeseries.csv, a rebound faster than 1.03 sqrt(1 + E) V0 (E: the elastic
+energy of the film at T = 0 over V0^2 / 2), a start with E > 5 % and no warning, or counts its
+unconverged steps other than timeseries.csv shows.
 
 A rolling contact draws M (log-uniform 1 to --max-M, by default 2000), L (0 to 25), D
 (log-uniform 0.25 to 4) and a grid of --grids; 25 % move the domain's edges (inlet 2.5 to 6
@@ -137,8 +138,13 @@ def impact_defects(run_dir, sets, tolerance=1e-5):
         problems.append(f"negative film {h_min:g}")
     v0 = float(next(s for s in sets if s.startswith("time.V0=")).split("=")[1])
     speed = results.get("rebound_speed")
-    if speed is not None and speed > 1.03 * v0:
-        problems.append(f"rebound {speed:g} above V0 {v0:g}")
+    # The energy of the start: the impact's and what the film at T = 0 stored
+    # in the solids (a start that stores more than 5 % of it warns).
+    stored = results["initial_elastic_energy"] / (0.5 * v0 * v0)
+    if speed is not None and speed > 1.03 * math.sqrt(1.0 + stored) * v0:
+        problems.append(f"rebound {speed:g} above sqrt(1 + {stored:.3g}) V0, V0 = {v0:g}")
+    if stored > 0.05 and not any("the film at T = 0 stores" in w for w in results["warnings"]):
+        problems.append(f"the start stores {stored:.3g} of the impact energy without a warning")
     above = sum(1 for r in rows if float(r["residual"]) > tolerance)
     if above != results["unconverged_steps"]:
         problems.append(f"{above} steps above the tolerance, {results['unconverged_steps']} counted")
