@@ -1519,6 +1519,15 @@ TEST(AttemptPolicy, DoesNotExtendASlowOrHopelessAttempt) {
   EXPECT_EQ(judge_attempt(at_cap, kTolerance, kMaxCycles), AttemptVerdict::Exhausted);
 }
 
+TEST(AttemptPolicy, AnUnconvergedIterateWhosePressureVanishedIsNotKept) {
+  // A step that began with a film force keeps no unconverged iterate without
+  // one: the run would take it for a lift-off (M = 100, L = 20 on 1025^2).
+  EXPECT_FALSE(may_keep_unconverged(0.059, 0.0));
+  EXPECT_TRUE(may_keep_unconverged(0.059, 1e-12));
+  // Without a force at the start there is nothing to lose.
+  EXPECT_TRUE(may_keep_unconverged(0.0, 0.0));
+}
+
 TEST(AttemptPolicy, EveryStepGetsEveryAttemptBeginningWithTheRememberedOne) {
   // The more damped attempts first, then the lighter ones: a step that
   // begins at the most damped attempt is not split (or kept above the

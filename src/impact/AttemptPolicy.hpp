@@ -90,4 +90,17 @@ inline constexpr int kMaxProbeBackoff = 3;
 [[nodiscard]] AttemptVerdict judge_attempt(std::span<const double> history, double tolerance,
                                            int max_cycles, bool force_settled = true);
 
+/// Whether an iterate that did not converge may be kept for its step (the
+/// best of its attempts), given the film force at the start of the step and
+/// its own.  Not one whose pressure vanished where the step began with some:
+/// M = 100, L = 20 on 1025^2 kept such an iterate in the collapse of the
+/// entrapped pocket (T = 4.034, residual 3.7e-4: the pocket is a few meshes
+/// of the grid the residual is averaged over), and the run took it for a
+/// lift-off, the force falling from 0.059 to 0 in one step, 0.07 before the
+/// lift-off of 513^2.  A pressure that vanishes converges when it is the
+/// solution, as at a true lift-off.
+[[nodiscard]] constexpr bool may_keep_unconverged(double start_force, double force) {
+  return force > 0.0 || !(start_force > 0.0);
+}
+
 }  // namespace ehlsim

@@ -533,6 +533,7 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
   if (cycle_observer) cycle_observer->on_cycle(report);
   std::vector<double> history;
   double force_before_cycle = fine.force(solver->solution());
+  const double start_force = force_before_cycle;
   for (int c = 1;; ++c) {
     solver->cycle();
     set_delta(newmark.delta_for_force(ball, fine.force(solver->solution())));
@@ -551,13 +552,13 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
                       "{} at the start of the step)",
                       step, ball.T + newmark.dT(), finite_or_text(residual, "{:.3e}"),
                       finite_or_text(initial_residual, "{:.3e}")));
-    if (residual < best.residual) {
+    const double force = fine.force(solver->solution());
+    if (residual < best.residual && may_keep_unconverged(start_force, force)) {
       best.P = solver->solution();
       best.residual = residual;
       best.delta = fine.delta();
       best.cycles = c;
     }
-    const double force = fine.force(solver->solution());
     const bool force_settled = force_has_settled(force, force_before_cycle);
     force_before_cycle = force;
     switch (judge_attempt(history, cfg.tolerance, cfg.max_cycles, force_settled)) {
