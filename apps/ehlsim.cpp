@@ -420,7 +420,8 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
   cmd->add_option("run_dir", options.run_dir, "run directory of `ehlsim impact`")->required();
   cmd->add_option("-o,--out", options.out_dir,
                   "where to write spike_snapshots.csv, spike_profiles.csv and axis_profiles.csv "
-                  "(default: the run directory)");
+                  "(default: the run directory)")
+      ->check(cli::not_empty("a directory"));
   cmd->add_option("--set", options.overrides,
                   "override a spike.* setting of the run, e.g. --set spike.filter=gaussian")
       ->type_name("KEY=VALUE")

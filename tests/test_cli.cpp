@@ -117,6 +117,8 @@ TEST(Cli, EmptyPathsAreBadInput) {
                    "--restart: must name a checkpoint file, not be empty");
   expect_bad_input(ehlsim("impact --out ''"), "--out: must name a directory, not be empty");
   expect_bad_input(ehlsim("study --out ''"), "--out: must name a directory, not be empty");
+  // ehlsim spike took it for its default, the run directory.
+  expect_bad_input(ehlsim("spike some-run --out ''"), "--out: must name a directory, not be empty");
 }
 
 TEST(Cli, AnOutThatIsOrLiesInAFileIsBadInput) {

@@ -387,6 +387,27 @@ TEST(CaseMap, RigidViscousBallComesToRest) {
   EXPECT_LT(res.at("impulse").get<double>(), 1.01);
 }
 
+TEST(CaseMap, ARigidBallNeverRebounds) {
+  // No elastic energy: M = 20, L = 0 "lifted off" at 0.37 V0 on 33^2 with
+  // exit 0 (a halved step overshot); M = 10 comes to rest.
+  TempDir dir;
+  const std::string rigid = "--set body.elastic=false --set case.L=0 ";
+  expect_failed_run(dir, map_run(dir, 33, rigid + "--set case.M=20"),
+                    "the rigid ball moves away from the flat (dDelta/dT = ");
+  const Result rest = map_run(dir, 33, rigid + "--set case.M=10");
+  ASSERT_EQ(rest.exit_code, 0) << rest.err;
+  EXPECT_EQ(results_of(dir).at("outcome"), "at_rest");
+  // M = 100 closes in further than 33^2 resolves; a Roelands law with z = 0
+  // is no piezoviscous film (it was told to use a smaller L).
+  TempDir other;
+  const Result closer = map_run(other, 33,
+                                "--set body.elastic=false --set case.M=100 --set "
+                                "lubricant.viscosity=roelands --set lubricant.ph_star=1e9 --set "
+                                "lubricant.eta0=0.04 --set lubricant.z=0");
+  expect_failed_run(other, closer, "a rigid ball's film thins without bound as it closes in");
+  EXPECT_EQ(closer.err.find("piezoviscous"), std::string::npos) << closer.err;
+}
+
 TEST(CaseMap, ARigidBallInAPiezoviscousFilmKeepsNoStepAboveTheTolerance) {
   // Closing in on a rigid flat through a Barus film, the pressure grows
   // without bound (p_center 0.11, 0.22, 0.36 at T = 0.47, 0.56, 0.59 on

@@ -549,9 +549,9 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
     if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
       throw RunFailure(
           fmt::format("time step {} (T = {:.5f}): the multigrid iteration diverged (residual {}, "
-                      "{} at the start of the step)",
+                      "{} at the start of the step){}",
                       step, ball.T + newmark.dT(), finite_or_text(residual, "{:.3e}"),
-                      finite_or_text(initial_residual, "{:.3e}")));
+                      finite_or_text(initial_residual, "{:.3e}"), rigid_film_hint(cfg)));
     const double force = fine.force(solver->solution());
     if (residual < best.residual && may_keep_unconverged(start_force, force)) {
       best.P = solver->solution();

@@ -94,8 +94,15 @@ namespace {
 /// (exit 0 at T_end), p_max jumping between 0.1 and 0.38, and between 0.24 and
 /// 1.76 with other time steps.
 bool keeps_no_unconverged_step(const ImpactConfig& c) {
-  return !c.elastic && (c.viscosity == ViscosityModel::Roelands || c.alpha_bar > 0.0);
+  // A Roelands law with z = 0 is isoviscous (it was told to use a smaller L).
+  const bool piezoviscous =
+      c.viscosity == ViscosityModel::Roelands ? c.roelands_z > 0.0 : c.alpha_bar > 0.0;
+  return !c.elastic && piezoviscous;
 }
+
+/// A rigid ball moving away from the flat faster than this times V0 has
+/// rebounded: the speed of the energy left at rest (kRestEnergyFraction).
+constexpr double kRigidReboundSpeed = 0.01;
 }  // namespace
 
 RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {
@@ -136,8 +143,20 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
   if (r.residual > b.max_residual)
     throw RunFailure(fmt::format(
         "{}: no attempt converged (residual {:.3g}, more than {:g} times solver.tolerance = {:g}): "
-        "the multigrid solver cannot solve this step, its film is not trusted",
-        where(r), r.residual, b.max_residual / c.tolerance, c.tolerance));
+        "the multigrid solver cannot solve this step, its film is not trusted{}",
+        where(r), r.residual, b.max_residual / c.tolerance, c.tolerance, rigid_film_hint(c)));
+  // A rigid ball has no elastic energy to give back: its film only brakes
+  // it.  M = 20, L = 0 on 33^2 "lifted off" at 0.37 V0 after a halved step
+  // (0.17 on 65^2, 0.06 on 129^2); with time.dT = 0.02 or 0.005 on 33^2 its
+  // film went negative instead: the film is thinner than the grid resolves.
+  if (!c.elastic && r.dDelta_dT > kRigidReboundSpeed * c.V0)
+    throw RunFailure(fmt::format(
+        "{}: the rigid ball moves away from the flat (dDelta/dT = {:.4g}): with no elastic energy "
+        "to give back, a rigid ball in a film cannot rebound; the grid and the time step cannot "
+        "resolve this film: use more points (grid.points = {}) or a shorter time step (time.dT = "
+        "{:.4g})",
+        where(r), r.dDelta_dT, c.grid_points,
+        c.dT > 0.0 ? c.dT : Grid2D(c.grid_points, c.half_width).h()));
   if (std::abs(r.dDelta_dT) > b.max_speed)
     throw RunFailure(fmt::format(
         "{}: the ball speed |dDelta/dT| = {:.4g} exceeds {:.4g}, the most the energy of the "
@@ -226,6 +245,12 @@ void check_step_cap(const StepRecord& r, const ImpactConfig& c, double dT) {
       "{}: no lift-off after {} steps (time.max_steps; Delta = {:.4g}, dDelta/dT = {:.4g}, "
       "p_max = {:.4g}): raise time.max_steps, or set time.T_end to stop at a given time",
       where(r), r.step, r.Delta, r.dDelta_dT, r.p_max));
+}
+
+std::string rigid_film_hint(const ImpactConfig& c) {
+  if (c.elastic) return {};
+  return "; a rigid ball's film thins without bound as it closes in, below what the grid "
+         "resolves: use more points, or body.elastic = true";
 }
 
 std::string domain_note(double edge_impulse, const ImpactConfig& c) {

@@ -148,6 +148,11 @@ inline constexpr double kEdgeImpulseWarning = 0.01;
 /// 1980 % and rebounded at 3.6 V0.
 inline constexpr double kStartEnergyWarning = 0.05;
 
+/// What to try when a rigid ball's step failed (its film thins without
+/// bound as it closes in: M = 100, L = 0 on 33^2 and 65^2, M = 20 with
+/// shorter time steps on 33^2), else "" (elastic bodies).
+[[nodiscard]] std::string rigid_film_hint(const ImpactConfig& c);
+
 /// What a start at time.Delta0 means for the rebound: a sentence when the
 /// film at T = 0 stores more than kStartEnergyWarning of the impact energy in
 /// the solids (in m v0^2, as RunSummary::initial_elastic_energy), else "".
