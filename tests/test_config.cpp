@@ -433,6 +433,13 @@ TEST(RegistryErrors, UnknownKeysAndSections) {
             "unknown key 'cse.L' (unknown section [cse]; " + sections + ") (" + f + ":5:5)");
   write_file(f, "[case]\nM = 20\n[empty]\n");
   EXPECT_EQ(config_error(f, {}), "unknown section '[empty]' (" + sections + ") (" + f + ":3:1)");
+  // An empty known section: an empty [physical] ran the default case.
+  write_file(f, "[physical]\n");
+  EXPECT_EQ(config_error(f, {}),
+            "section [physical] is empty: give its keys (known keys: reduced_radius, ball_radius, "
+            "ball_mass, ball_density, impact_speed, reduced_modulus, E1, nu1, E2, nu2, eta0, "
+            "alpha, rho0) or leave it out (" +
+                f + ":1:1)");
   write_file(f, "case = 3\n");
   EXPECT_EQ(config_error(f, {}), "case = 3: must be a table (section [case]) (" + f + ":1:8)");
   write_file(f, "[grid]\npoints = 100\n");

@@ -594,6 +594,15 @@ GivenMap collect(const toml::table& root, const ParameterSet& set, std::string_v
                  fmt::format("must be a table (section [{}])", section),
                  node_origin(section_node, file));
     }
+    // An empty section is no input: an empty [physical] ran the default
+    // case, its presence ignored.
+    if (table->empty()) {
+      throw ConfigError(fmt::format("section [{}] is empty: give its keys (known keys: {}) or "
+                                    "leave it out{}",
+                                    section, keys_in_section(set, section),
+                                    origin_suffix(node_origin(section_node, file))),
+                        section);
+    }
     for (auto&& [name, node] : *table) {
       const std::string key = section + "." + std::string(name.str());
       if (!set.find(key)) {

@@ -98,7 +98,8 @@ inline constexpr int kMaxProbeBackoff = 3;
 /// of the grid the residual is averaged over), and the run took it for a
 /// lift-off, the force falling from 0.059 to 0 in one step, 0.07 before the
 /// lift-off of 513^2.  A pressure that vanishes converges when it is the
-/// solution, as at a true lift-off.
+/// solution, as at a true lift-off.  Such an iterate is kept only when no
+/// other is left, and a run does not take it for a lift-off (ImpactProblem.cpp).
 [[nodiscard]] constexpr bool may_keep_unconverged(double start_force, double force) {
   return force > 0.0 || !(start_force > 0.0);
 }

@@ -231,6 +231,13 @@ struct ImpactProblem::Impl {
     double residual = std::numeric_limits<double>::infinity();
     double delta = 0.0;
     int cycles = 0;
+    bool vanished = true;  ///< its pressure vanished (may_keep_unconverged); none yet: true
+    /// Whether an iterate of this residual, keepable or not, is the better
+    /// one: any that may be kept beats one whose pressure vanished.
+    [[nodiscard]] bool improves(double r, bool keepable) const {
+      if (keepable == vanished) return keepable;
+      return r < residual;
+    }
   };
   /// How an attempt ended: below the tolerance or not, and its last iterate's
   /// residual and cycles.
@@ -553,11 +560,13 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
                       step, ball.T + newmark.dT(), finite_or_text(residual, "{:.3e}"),
                       finite_or_text(initial_residual, "{:.3e}"), rigid_film_hint(cfg)));
     const double force = fine.force(solver->solution());
-    if (residual < best.residual && may_keep_unconverged(start_force, force)) {
+    if (const bool keepable = may_keep_unconverged(start_force, force);
+        best.improves(residual, keepable)) {
       best.P = solver->solution();
       best.residual = residual;
       best.delta = fine.delta();
       best.cycles = c;
+      best.vanished = !keepable;
     }
     const bool force_settled = force_has_settled(force, force_before_cycle);
     force_before_cycle = force;
@@ -856,6 +865,14 @@ std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& 
   // A run to a given time.T_end goes on to it, at rest or not.
   const bool until_lift_off = !std::isfinite(cfg.T_end);
   if (until_lift_off && is_at_rest(record.dDelta_dT, energy, run.bounds)) return RunOutcome::AtRest;
+  if (run.had_pressure && record.p_max <= 0.0 && record.residual > cfg.tolerance)
+    throw RunFailure(fmt::format(
+        "time step {} (T = {:.5f}): the pressure vanished in a step that no attempt converged "
+        "(residual {:.3g}, above solver.tolerance = {:g}): not a lift-off the solver can vouch "
+        "for; the collapse of the entrapped pocket before lift-off is near-singular on fine "
+        "grids (docs/performance.md): more cycles (solver.max_cycles) or a coarser grid may "
+        "solve it",
+        record.step, record.T, record.residual, cfg.tolerance));
   if (run.had_pressure && record.dDelta_dT > 0.0 && record.p_max <= 0.0) return RunOutcome::LiftOff;
   if (record.T >= cfg.T_end - 1e-9 * dT) return RunOutcome::TEnd;
   check_step_cap(record, cfg, dT);
