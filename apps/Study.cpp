@@ -463,6 +463,18 @@ void check_study_options(const StudyOptions& options) {
 /// What the figure script writes last into its directory.
 constexpr std::string_view kFiguresSummary = "summary.json";
 
+/// Copies into `staging` what `figures` holds that the new figures do not
+/// replace (a file of the user's there was deleted with the earlier set);
+/// copies, so that a swap that fails loses nothing.
+void carry_over_other_files(const fs::path& figures, const fs::path& staging) {
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(figures, ec)) {
+    const fs::path target = staging / entry.path().filename();
+    if (fs::exists(fs::symlink_status(target))) continue;
+    fs::copy(entry.path(), target, fs::copy_options::recursive | fs::copy_options::copy_symlinks);
+  }
+}
+
 /// Runs the figure script (`python script STUDY_DIR FIGURES_DIR`) into a
 /// staging directory beside `out`/figures and puts it in place when the
 /// script succeeds (having written kFiguresSummary) and no signal came:
@@ -492,7 +504,10 @@ int draw_figures(const std::string& python, const fs::path& script, const fs::pa
           << fmt::format("the figure script exited 0 without writing {}\n", kFiguresSummary);
       code = cli::kExitFailure;
     }
-    if (code == kExitOk && InterruptGuard::received() == 0) replace_directory(staging, figures);
+    if (code == kExitOk && InterruptGuard::received() == 0) {
+      carry_over_other_files(figures, staging);
+      replace_directory(staging, figures);
+    }
   } catch (const std::runtime_error& e) {
     std::ofstream(log, std::ios::app) << e.what() << '\n';  // reported like a failed script
     code = cli::kExitFailure;

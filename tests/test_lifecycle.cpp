@@ -1398,4 +1398,21 @@ TEST(Lifecycle, ASignalWhileTheConfigIsReadEndsAsASignal) {
   EXPECT_FALSE(fs::exists(work / "run"));
 }
 
+TEST(Lifecycle, AStudyKeepsAFileOfTheUsersInItsFigures) {
+  // figures/ is replaced as a whole: a file of the user's there was deleted
+  // with the earlier set (exit 0).  It is carried over; a figure of the new
+  // set replaces the earlier one.
+  TempDir work;
+  const fs::path study = work / "study";
+  const fs::path script = work / "figures.sh";
+  std::ofstream(script) << "echo new > \"$2/fig1.png\"; echo '{}' > \"$2/summary.json\"\n";
+  fs::create_directories(study / "figures");
+  std::ofstream(study / "figures" / "mine.txt") << "mine\n";
+  std::ofstream(study / "figures" / "fig1.png") << "earlier\n";
+  const Child c = start(tiny_study_with_script(study, script), work / "study");
+  ASSERT_EQ(exit_code_of(c), 0) << read_file(c.out) << read_file(c.err);
+  EXPECT_EQ(read_file(study / "figures" / "mine.txt"), "mine\n");
+  EXPECT_EQ(read_file(study / "figures" / "fig1.png"), "new\n");
+}
+
 }  // namespace
