@@ -466,8 +466,8 @@ void check_mesh_resolves_the_film(const Inputs& in, const ImpactConfig& c) {
 
 /// An elastic ball's dry contact must fit into the domain, and its duration
 /// must span kMinStepsPerDryContact time steps: else the run can only fail
-/// or give a result of the discretisation (model.md, "Reference values").  A rigid ball has no dry
-/// contact.
+/// or give a result of the discretisation (model.md, "Reference values").  A
+/// rigid ball has no dry contact.
 void check_dry_contact_resolved(const Inputs& in, const ImpactConfig& c) {
   if (!c.elastic) return;
   const double radius = dry_largest_contact_radius(c.V0);

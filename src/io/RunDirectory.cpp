@@ -113,7 +113,7 @@ bool is_ehlsim_run_json(const fs::path& path) {
 /// --out RUN/DIR` (a spike analysis file), or a lock or partial file.  A file
 /// of the user's that bears a run's name elsewhere (RUN/a/b/fields.nc) is not.
 bool is_ehlsim_file_below(const fs::path& file) {
-  std::string name = file.filename().string();
+  const std::string name = file.filename().string();
   if (!is_ehlsim_file_name(name)) return false;
   if (is_lock_file_name(name) || is_ehlsim_run_json(file.parent_path() / "run.json")) return true;
   const std::string_view part = PartialFile::kSuffix;
