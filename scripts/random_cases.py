@@ -18,12 +18,12 @@ unconverged steps other than timeseries.csv shows.
 A rolling contact draws M (log-uniform 1 to --max-M, by default 2000), L (0 to 25), D
 (log-uniform 0.25 to 4) and a grid of --grids; 25 % move the domain's edges (inlet 2.5 to 6
 radii, outlet 1 to 3, square cells), 20 % another solver.tolerance (1e-6 to 1e-3), 25 %
-Roelands, 25 % Dowson-Higginson, 10 % rigid bodies.  Its defects: those of an error as above (exit 1 need
-not name a time step: there is none, but it says what to try: more points, a larger domain,
-more cycles, or the bound of a rigid piezoviscous film), and for an exit 0 a non-finite
-result, a residual or force error above the tolerance, a minimum film that is not positive
-or above the central one, or an elastic Hc more than 15 % from the Nijenbanning-Venner-Moes
-formula without a warning.
+Roelands, 25 % Dowson-Higginson, 10 % rigid bodies.  Its defects: those of an error as above
+(exit 1 need not name a time step: there is none, but it says what to try: more points, a
+larger domain, more cycles or why more will not help, or the bound of a rigid piezoviscous
+film), and for an exit 0 a non-finite result, a residual or force error above the tolerance,
+a minimum film that is not positive or above the central one, or an elastic Hc more than 15 %
+from the Nijenbanning-Venner-Moes formula without a warning.
 
 One thread, one case at a time; prints one line per case, the defects last, and exits 1 if
 there are any.
@@ -85,7 +85,8 @@ def draw_impact(rng, grids, _max_m):
 
 # What a rolling contact's exit 1 suggests: more points, a larger domain, more cycles or
 # the other deformation update, or (rigid bodies) the bound on alpha_bar.
-ROLLING_HINTS = ("use more points", "extend it", "may converge it", "bound on alpha_bar")
+ROLLING_HINTS = ("use more points", "extend it", "may converge it", "bound on alpha_bar",
+                 "more cycles will not converge it")
 
 
 def error_defect(code, err, mode):
