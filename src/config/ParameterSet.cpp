@@ -123,8 +123,8 @@ std::string quoted_list(const std::vector<std::string>& items) {
   return out;
 }
 
-/// "> 0", ">= 0", "< 1", "in [0, 0.5]", "" for a plain interval.
-/// "in [a, b]", ">= a", ... of the bounds; `whole_numbers` writes them out in full.
+/// "> 0", ">= 0", "< 1", "in [0, 0.5]", "" for a plain interval; `whole_numbers`
+/// writes the bounds out in full (2147483647, not 2.14748e+09).
 std::string interval_text(const std::optional<Bound>& lower, const std::optional<Bound>& upper,
                           bool whole_numbers = false) {
   const auto number = [&](double v) {

@@ -436,6 +436,11 @@ void check_waviness_resolved(const Inputs& in, const ImpactConfig& c) {
 /// grids).
 constexpr double kMinStepsPerDryContact = 4.0;
 
+/// The key to name for a mesh that fails a check: the one the user gave.
+std::string mesh_key(const Inputs& in) {
+  return in.has("grid.half_width") ? "grid.half_width" : "grid.points";
+}
+
 /// The grid must resolve the film's pressure zone: the squeeze film at the
 /// start, about sqrt(2 Delta0) wide (the gap doubles there), or an elastic
 /// ball's dry contact (its largest radius), the wider of the two.  With a mesh
@@ -458,7 +463,7 @@ void check_mesh_resolves_the_film(const Inputs& in, const ImpactConfig& c) {
                       "the width of the squeeze film at the start, sqrt(2 time.Delta0) "
                       "= {:.4g}",
                       film);
-  in.fail(in.has("grid.half_width") ? "grid.half_width" : "grid.points",
+  in.fail(mesh_key(in),
           fmt::format("gives a mesh of {:.4g}, not below {}: the grid cannot resolve the film; "
                       "use more points or a smaller domain",
                       mesh, zones));
@@ -485,7 +490,7 @@ void check_dry_contact_resolved(const Inputs& in, const ImpactConfig& c) {
       "the dry contact at time.V0 = {:g} lasts {:.4g}, and a run needs at least {:g} steps in it",
       c.V0, duration, kMinStepsPerDryContact);
   if (in.has("time.dT")) in.fail("time.dT", fmt::format("must be <= {:.4g}: {}", largest_dT, why));
-  in.fail(in.has("grid.half_width") ? "grid.half_width" : "grid.points",
+  in.fail(mesh_key(in),
           fmt::format("gives a mesh, and so a default time.dT, of {:.4g}; it must be <= {:.4g} "
                       "({}): set time.dT or use a finer mesh",
                       dT, largest_dT, why));

@@ -116,6 +116,7 @@ RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0) {
                                            std::numbers::sqrt2 * std::numbers::pi * c.half_width);
   b.max_residual = (keeps_no_unconverged_step(c) ? 1.0 : kMaxKeptResidualFactor) * c.tolerance;
   b.rest_energy = kRestEnergyFraction * 0.5 * c.V0 * c.V0;
+  b.dT = dT;
   return b;
 }
 
@@ -155,8 +156,7 @@ void check_step_physics(const StepRecord& r, const RunBounds& b, const ImpactCon
         "to give back, a rigid ball in a film cannot rebound; the grid and the time step cannot "
         "resolve this film: use more points (grid.points = {}) or a shorter time step (time.dT = "
         "{:.4g})",
-        where(r), r.dDelta_dT, c.grid_points,
-        c.dT > 0.0 ? c.dT : Grid2D(c.grid_points, c.half_width).h()));
+        where(r), r.dDelta_dT, c.grid_points, b.dT));
   if (std::abs(r.dDelta_dT) > b.max_speed)
     throw RunFailure(fmt::format(
         "{}: the ball speed |dDelta/dT| = {:.4g} exceeds {:.4g}, the most the energy of the "

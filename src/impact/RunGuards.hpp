@@ -44,6 +44,7 @@ struct RunBounds {
   double max_force = std::numeric_limits<double>::infinity();  ///< elastic bodies only
   double max_residual = 0.0;  ///< of a step kept above solver.tolerance
   double rest_energy = 0.0;   ///< below this remaining energy the ball is at rest
+  double dT = 0.0;            ///< the run's time step (for messages)
 };
 
 [[nodiscard]] RunBounds run_bounds(const ImpactConfig& c, double dT, double elastic_energy0);

@@ -477,7 +477,7 @@ RunDirectory::RunDirectory(const fs::path& target)
   check_replaceable_run_directory(target_);
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
-  replaced_entries_ = entries_below(resolved_, {});
+  entries_at_start_ = entries_below(resolved_, {});
   fs::create_directory(staging_);
 }
 
@@ -537,8 +537,8 @@ void RunDirectory::check_target_unchanged() const {
     // ended meanwhile (`ehlsim spike DIR --out DIR/gauss`): its files are
     // ehlsim's and its lock is gone, but it is not the run this one replaces.
     for (const CarriedEntry& entry : entries_below(resolved_, {})) {
-      if (std::find(replaced_entries_.begin(), replaced_entries_.end(), entry) ==
-          replaced_entries_.end()) {
+      if (std::find(entries_at_start_.begin(), entries_at_start_.end(), entry) ==
+          entries_at_start_.end()) {
         throw std::runtime_error(fmt::format(
             "'{}' gained '{}' during the run (another program or ehlsim run wrote it): it was "
             "left as it was",

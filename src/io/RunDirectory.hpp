@@ -112,7 +112,7 @@ class RunDirectory {
   bool amend_ = false;
   std::vector<std::string> replaced_;           ///< amendment: the names written anew
   std::vector<CarriedEntry> carried_;           ///< amendment: what was carried over from DIR
-  std::vector<CarriedEntry> replaced_entries_;  ///< new run: what DIR held at the start
+  std::vector<CarriedEntry> entries_at_start_;  ///< new run: what DIR held when it began
   bool published_ = false;
 
   /// Throws std::runtime_error when DIR may no longer be replaced by the staging directory.

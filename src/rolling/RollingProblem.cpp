@@ -577,9 +577,6 @@ std::string update_text(bool each_colour) {
   return each_colour ? "before each colour of the relaxation" : "once per sweep";
 }
 
-/// What else to try when an elastic contact's iteration ran out of cycles
-/// (not when its domain is the reason): the other deformation update, unless
-/// the run has tried it (RollingConfig::fallback_update says why).
 /// The finest-grid cycles over which a run out of cycles is judged to have
 /// stalled: its measure max(residual, |force error|) fell by less than
 /// kStalledRunFactor over them.  solver.tolerance = 1e-300 on 33^2 sat at a
@@ -590,17 +587,21 @@ constexpr double kStalledRunFactor = 0.5;
 
 /// True when the last attempt on the finest grid of `history` stalled.
 bool stalled(const std::vector<RollingCycle>& history) {
-  if (history.empty()) return false;
+  if (history.size() <= kStalledRunCycles) return false;
   const RollingCycle& last = history.back();
   const auto measure = [](const RollingCycle& c) {
     return std::max(c.residual, std::abs(c.force_error));
   };
-  if (last.cycle <= kStalledRunCycles || history.size() <= kStalledRunCycles) return false;
+  if (last.cycle <= kStalledRunCycles) return false;
   const RollingCycle& before = history[history.size() - 1 - kStalledRunCycles];
   if (before.points != last.points || before.attempt != last.attempt) return false;
   return !(measure(last) < kStalledRunFactor * measure(before));
 }
 
+/// What else to try when an elastic contact's iteration ran out of cycles
+/// (not when its domain is the reason): the other deformation update, unless
+/// the run has tried it (RollingConfig::fallback_update says why); or that
+/// more cycles will not help, when the run stalled (`history`).
 std::string relaxation_hint(const RollingConfig& c, bool other_update_tried,
                             const std::vector<RollingCycle>& history) {
   if (stalled(history))
