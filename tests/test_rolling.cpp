@@ -556,6 +556,27 @@ TEST(Rolling, AFilmFarBelowTheMeshFailsWithAHint) {
   EXPECT_EQ(message.find("with the deformation updated"), std::string::npos) << message;
 }
 
+TEST(Rolling, AFailureBeyondTheConvergedLSaysSoAndWhatMayHelp) {
+  // M = 5, L = 100 on 65^2: the force balance diverges at full relaxation of
+  // H0 (on 129^2 and 257^2 too).  The message names L and the half step of
+  // H0, which converges it (to a film 32 % below the formula's, which the
+  // run warns of).
+  RollingConfig config = rolling_case(5, 100, 65);
+  const std::string message = failure_message(config);
+  EXPECT_EQ(message.rfind("the force balance diverged on the 65^2 grid", 0), 0u) << message;
+  EXPECT_NE(message.find("; L = 100 lies beyond the range the rolling solver converges (every M "
+                         "from 2 to 1000 up to L = 50;"),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("solver.h0_relaxation = 0.5 may converge it"), std::string::npos)
+      << message;
+  config.h0_relaxation = 0.5;
+  const RollingResult r = solve(config);
+  EXPECT_LT(r.residual, config.tolerance);
+  EXPECT_LT(std::abs(r.force_error), config.tolerance);
+  EXPECT_GT(r.Hm, 0.0);
+}
+
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
   // One cycle cannot converge anything.  Without the fallback the message
   // names the cycles and the other deformation update.

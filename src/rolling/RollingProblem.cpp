@@ -598,6 +598,28 @@ bool stalled(const std::vector<RollingCycle>& history) {
   return !(measure(last) < kStalledRunFactor * measure(before));
 }
 
+/// The largest L at which every elastic contact of the grid M in {2, 5, 10,
+/// 38, 100, 300, 1000} x L in {10, 25, 50, 75, 100, 150} on 65^2 converged
+/// (or had a negative film that more points resolve).  The first failures:
+/// L = 75 at M = 2, L = 100 at M = 5 and 38, L = 150 at M = 10, 100 and 300;
+/// every M but 1000 failed at L = 150.  The three tried on 129^2 and 257^2
+/// failed there too, with either deformation update (docs/validation.md,
+/// "Beyond L = 50").
+constexpr double kLargestConvergedL = 50.0;
+
+/// Why an elastic contact above kLargestConvergedL failed, else "": half the
+/// Newton step of H0 converged two of seven failures on 65^2 (M = 5 and 38 at
+/// L = 100), a tenth of it one.
+std::string beyond_converged_L_hint(const RollingConfig& c) {
+  if (!c.elastic || !(c.L > kLargestConvergedL)) return {};
+  return fmt::format(
+      "; L = {:.4g} lies beyond the range the rolling solver converges (every M from 2 to 1000 "
+      "up to L = {:g}; above it some fail on every grid and with either deformation update; "
+      "\"Beyond L = 50\" in docs/validation.md): solver.h0_relaxation = 0.5 may converge it "
+      "(two of seven such failures on 65^2), but no setting is known that converges them all",
+      c.L, kLargestConvergedL);
+}
+
 /// What else to try when an elastic contact's iteration ran out of cycles
 /// (not when its domain is the reason): the other deformation update, unless
 /// the run has tried it (RollingConfig::fallback_update says why); or that
@@ -638,6 +660,8 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
         why = rigid_hint(c, impl_->grid.h());
       } else if (!unresolved.empty()) {
         why = unresolved;
+      } else if (std::string beyond = beyond_converged_L_hint(c); !beyond.empty()) {
+        why = beyond;
       } else if (domain.empty() && out_of_cycles) {
         why = relaxation_hint(c, false, impl_->history);
       }
@@ -668,10 +692,12 @@ RollingResult RollingProblem::solve_with_other_update(const std::string& why,
   } catch (const RollingFailure& e) {
     const std::string domain = impl_->domain_hint();
     const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
+    std::string next = beyond_converged_L_hint(other);
+    if (next.empty() && domain.empty() && out_of_cycles)
+      next = relaxation_hint(other, true, impl_->history);
     throw RollingFailure(fmt::format(
         "{}{}, with the deformation updated {}; with it updated {} before that: {}{}", e.what(),
-        domain, update_text(each_colour), update_text(!each_colour), why,
-        domain.empty() && out_of_cycles ? relaxation_hint(other, true, impl_->history) : ""));
+        domain, update_text(each_colour), update_text(!each_colour), why, next));
   }
   for (RollingCycle& c : result.history) c.work += work;
   history.insert(history.end(), result.history.begin(), result.history.end());
