@@ -589,11 +589,6 @@ ImpactConfig load_config(const std::optional<std::filesystem::path>& file,
 
 std::string describe_parameters() { return describe_parameters(impact_parameters()); }
 
-double effective_time_step(const ImpactConfig& config) {
-  if (config.dT > 0.0) return config.dT;
-  return Grid2D(config.grid_points, config.half_width).h();
-}
-
 std::string_view spike_filter_text(SpikeFilter filter) {
   for (const auto& [value, name] : kSpikeFilterNames) {
     if (value == filter) return name;

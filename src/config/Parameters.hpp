@@ -69,9 +69,6 @@ inline constexpr double kMaxV0 = 1e6;
 /// null when the run goes until lift-off.
 [[nodiscard]] nlohmann::json effective_parameters_json(const ImpactConfig& config);
 
-/// The time step the run uses: config.dT, or the mesh size when dT == 0.
-[[nodiscard]] double effective_time_step(const ImpactConfig& config);
-
 /// The TOML string of a spike filter (as in the input files).
 [[nodiscard]] std::string_view spike_filter_text(SpikeFilter filter);
 

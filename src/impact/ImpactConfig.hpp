@@ -122,4 +122,8 @@ struct ImpactConfig : SolverSettings {
   SpikeSettings spike;
 };
 
+/// The time step the run uses: time.dT, or the mesh size when dT == 0
+/// (defined with the problem, ImpactProblem.cpp).
+[[nodiscard]] double effective_time_step(const ImpactConfig& config);
+
 }  // namespace ehlsim

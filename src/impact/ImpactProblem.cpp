@@ -36,6 +36,11 @@ bool is_mirror_symmetric(const ImpactConfig& c) {
   return quarter_turns == std::round(quarter_turns);
 }
 
+double effective_time_step(const ImpactConfig& config) {
+  if (config.dT > 0.0) return config.dT;
+  return Grid2D(config.grid_points, config.half_width).h();
+}
+
 namespace {
 /// A step whose residual grows this far above its starting value has diverged.
 constexpr double kDivergenceFactor = 1e3;
@@ -327,7 +332,7 @@ struct ImpactProblem::Impl {
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
     : cfg(config),
       grid(solver_grid(config)),
-      dT(config.dT > 0.0 ? config.dT : grid.h()),
+      dT(effective_time_step(config)),
       newmark(dT),
       hierarchy(grid, make_lubricant(config), operator_settings(config),
                 relaxation_for(config.relaxation), config),
