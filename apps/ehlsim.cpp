@@ -13,12 +13,15 @@
 //
 // Each subcommand is a pair add_<name>_command (options) / run_<name> (action);
 // the study driver is in apps/Study.cpp.
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <omp.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -536,9 +539,22 @@ int run_with_stop_signals(int argc, char** argv) {
   return code;
 }
 
+/// Opens /dev/null on whichever of stdin, stdout and stderr the caller closed
+/// (`ehlsim impact >&- 2>&-`): else the first files ehlsim opens take those
+/// descriptors, and the progress and error lines went into spike.csv.
+void open_closed_standard_streams() {
+  for (int fd = STDIN_FILENO; fd <= STDERR_FILENO; ++fd) {
+    if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+    // open(2) returns the lowest free descriptor: this one.
+    const int opened = ::open("/dev/null", fd == STDIN_FILENO ? O_RDONLY : O_WRONLY);
+    if (opened != fd && opened >= 0) ::close(opened);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  open_closed_standard_streams();
   // ehlsim waits for its children (the cases of a study, the figure script,
   // the NetCDF children of io/IsolatedIo.hpp).  SIGCHLD ignored, as a
   // launcher may pass it on through exec, would have the kernel reap them

@@ -203,6 +203,25 @@ TEST(Lifecycle, ARerunReplacesTheWholeDirectory) {
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});  // no lock, staging, checkpoint
 }
 
+TEST(Lifecycle, ClosedStandardStreamsLeaveTheOutputsClean) {
+  // With descriptors 0, 1 and 2 closed the first files opened took them, and
+  // the progress line went into spike.csv ahead of its header (exit 0).
+  TempDir work;
+  const fs::path run = work / "run";
+  const auto closed = [](const std::string& args) {
+    const std::string command = quote(EHLSIM_BINARY) + " impact " + args + " <&- >&- 2>&-";
+    const int status = std::system(command.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  ASSERT_EQ(closed("--set grid.points=33 --set time.T_end=0.3 --out " + quote(run.string())), 0);
+  for (const std::string name : {"spike.csv", "timeseries.csv", "convergence.csv"}) {
+    const std::string text = read_file(run / name);
+    EXPECT_TRUE(text.starts_with("T,") || text.starts_with("step,")) << name << ": " << text;
+  }
+  EXPECT_EQ(nlohmann::json::parse(read_file(run / "run.json"))["results"]["outcome"], "t_end");
+  EXPECT_EQ(closed("--set case.M=-1 --out " + quote((work / "bad").string())), 2);
+}
+
 TEST(Lifecycle, RefusesADirectoryItDidNotWrite) {
   TempDir work;
   const fs::path mine = work / "mine";
