@@ -301,6 +301,26 @@ TEST(Registry, SetOverridesUseTomlValueSyntax) {
             std::vector<double>{3.2});
 }
 
+TEST(RegistryErrors, AKeyNestedDeeperThanAnyOfEhlsimsIsRefusedBeforeTheParser) {
+  // 50 000 parts (100 kB) overflowed the stack of the TOML parser (SIGSEGV),
+  // as a key, a table header or a key of an inline table.
+  TempDir dir;
+  std::string parts = "x";
+  for (int i = 0; i < 50000; ++i) parts += ".x";
+  const std::string deep = "deep.toml:2: a key nested more than 256 levels deep";
+  for (const std::string& text :
+       {"[case]\n" + parts + " = 1\n", "\n[" + parts + "]\n", "\nv = { " + parts + " = 1 }\n"}) {
+    const std::string message = config_error(write_file(dir / "deep.toml", text), {});
+    EXPECT_NE(message.find(deep), std::string::npos) << message.substr(0, 200);
+  }
+  // Dots in comments, strings and numbers are no keys: such a file reads.
+  const std::string dots(1000, '.');
+  const fs::path fine =
+      write_file(dir / "fine.toml", "[case] # " + dots + "\nM = 20.5 # " + dots + "\n[output]\n" +
+                                        "snapshot_times = [0.5, 1.5, 2.5] # \"" + dots + "\n");
+  EXPECT_EQ(load_config(fine, {}).M, 20.5);
+}
+
 TEST(Registry, SetOverridesTheFileAndTheLastSetWins) {
   TempDir dir;
   const fs::path file = write_file(dir / "case.toml", "[case]\nM = 20\n[grid]\npoints = 65\n");

@@ -39,6 +39,12 @@ namespace {
 /// output.snapshot_times list some kB; a runaway value of 10 MB is still read
 /// (to be refused with its key named, shortened).
 constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
+/// The most dots a key or table header of a config file may hold outside
+/// quotes.  Each dot is a level of tables, and toml++ 3.3 parses and frees
+/// them recursively: a key of 50 000 parts (100 kB) overflowed the stack
+/// (SIGSEGV).  ehlsim's keys have one (section.key); toml++ limits the
+/// nesting of values (inline tables, arrays) to 256 levels itself.
+constexpr int kMaxKeyDots = 256;
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -480,8 +486,53 @@ void refuse_underflows(const toml::node& node, const std::string& key,
   }
 }
 
+namespace {
+/// The index of the last character of the string that opens at `begin` of
+/// `text` (basic or literal, single- or multi-line; text.size() when it does
+/// not end, which the parser reports).  `line` counts the newlines in it.
+std::size_t end_of_string(std::string_view text, std::size_t begin, std::size_t& line) {
+  const char quote = text[begin];
+  const bool multi_line = text.substr(begin, 3) == std::string(3, quote);
+  for (std::size_t i = begin + (multi_line ? 3 : 1); i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      if (!multi_line) return i - 1;  // unterminated: the newline is the parser's
+      ++line;
+    } else if (text[i] == '\\' && quote == '"') {
+      ++i;  // an escape: the next character does not close the string
+    } else if (text[i] == quote && (!multi_line || text.substr(i, 3) == std::string(3, quote))) {
+      return multi_line ? i + 2 : i;
+    }
+  }
+  return text.size();
+}
+
+/// Throws ConfigError, naming the line, for a key or header of `text` with more
+/// than kMaxKeyDots dots outside quotes: dots between two of the characters
+/// that end a key or a value (newline, '=', ',', brackets and braces) count.
+void refuse_deep_keys(std::string_view text, const std::filesystem::path& path) {
+  int dots = 0;
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '"' || c == '\'') {
+      i = end_of_string(text, i, line);
+    } else if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '.' && ++dots > kMaxKeyDots) {
+      throw ConfigError(fmt::format(
+          "{}:{}: a key nested more than {} levels deep (ehlsim's keys are section.key)",
+          path.string(), line, kMaxKeyDots));
+    } else if (std::string_view("\n=,[]{}").find(c) != std::string_view::npos) {
+      dots = 0;
+      if (c == '\n') ++line;
+    }
+  }
+}
+}  // namespace
+
 toml::table parse_config_file(const std::filesystem::path& path) {
   const std::string text = read_config_text(path);
+  refuse_deep_keys(text, path);
   toml::table root;
   try {
     root = toml::parse(text, std::string_view(path.string()));
