@@ -773,6 +773,36 @@ TEST(DamagedFiles, OnlyNetcdf4IsRead) {
   }
 }
 
+TEST(DamagedFiles, APressureTheFileLostIsNoPressure) {
+  // A chunk HDF5 lost (one flipped bit) reads as the fill value 9.97e36:
+  // `ehlsim spike` analysed it as a pressure, with exit 0.  Here a third
+  // time whose P was never written stands for it.
+  TempDir dir;
+  const fs::path path = dir / "fields.nc";
+  const Grid2D grid(9, 1.5);
+  {
+    FieldWriter w(path, grid, nlohmann::json::object());
+    w.append(0.5, Field(grid, 1.0), Field(grid, 2.0));
+    w.append(1.0, Field(grid, 1.5), Field(grid, 2.5));
+    w.commit();
+  }
+  int ncid = -1, time = -1;
+  ASSERT_EQ(nc_open(path.c_str(), NC_WRITE, &ncid), NC_NOERR);
+  ASSERT_EQ(nc_inq_varid(ncid, "time", &time), NC_NOERR);
+  const std::size_t third = 2;
+  const double T = 1.5;
+  ASSERT_EQ(nc_put_var1_double(ncid, time, &third, &T), NC_NOERR);
+  ASSERT_EQ(nc_close(ncid), NC_NOERR);
+  const FieldReader reader(path);
+  ASSERT_EQ(reader.times().size(), 3u);
+  EXPECT_EQ(reader.pressure(1)(4, 4), 1.5);
+  const std::string message = read_error([&] { (void)reader.pressure(2); });
+  EXPECT_NE(message.find("variable P of snapshot 2 has no data at point (0, 0) (the NetCDF fill "
+                         "value 9.96921e+36: a part of the file is lost)"),
+            std::string::npos)
+      << message;
+}
+
 TEST(DamagedFiles, CheckpointAttributeWithSeveralValues) {
   TempDir dir;
   const fs::path path = write_valid_checkpoint(dir / "checkpoint.nc");

@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 #include <netcdf.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -91,6 +93,17 @@ Field FieldReader::pressure(std::size_t index) const {
   const std::array<std::size_t, 3> start = {index, 0, 0};
   const std::array<std::size_t, 3> count = {1, n, n};
   check(nc_get_vara_double(ncid_, var_P_, start.data(), count.data(), P.data()), "variable P");
+  // HDF5 gives the fill value for a chunk it lost (one flipped bit of a
+  // fields.nc): 9.97e36 everywhere there, a pressure no run writes.
+  const std::span<const double> values = P.span();
+  if (const auto lost = std::find(values.begin(), values.end(), NC_FILL_DOUBLE);
+      lost != values.end()) {
+    const auto at = static_cast<int>(lost - values.begin());
+    throw std::runtime_error(fmt::format(
+        "cannot read '{}': variable P of snapshot {} has no data at point ({}, {}) (the NetCDF "
+        "fill value {:g}: a part of the file is lost)",
+        path_.string(), index, at % grid_.n, at / grid_.n, NC_FILL_DOUBLE));
+  }
   return P;
 }
 
