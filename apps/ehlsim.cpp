@@ -47,6 +47,7 @@
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
+#include "io/NetcdfStatus.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
@@ -255,7 +256,11 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  run_dir.publish(config.checkpoint_every > 0 && kept.written);
+  std::error_code ec;  // a restart file that is gone is not DIR.checkpoint.nc
+  const bool resumed_beside =
+      !options.restart_file.empty() &&
+      std::filesystem::equivalent(options.restart_file, run_dir.checkpoint(), ec);
+  run_dir.publish(config.checkpoint_every > 0 && kept.written, resumed_beside);
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
     cli::print_warnings(summary.warnings);
@@ -364,6 +369,20 @@ int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, con
   return kExitFailure;
 }
 
+/// ConfigError when `checkpoint` (DIR.checkpoint.nc, where the run keeps its
+/// checkpoints, and the state a signal leaves) exists and is no NetCDF-4
+/// file: a user's file or directory by that name was overwritten or deleted.
+void refuse_foreign_checkpoint(const std::filesystem::path& checkpoint, const std::string& out) {
+  try {
+    require_netcdf4_file(checkpoint, "replace");
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: move "
+                                  "it, or choose another --out",
+                                  out, e.what()),
+                      "--out");
+  }
+}
+
 int run_impact(const ImpactOptions& options) {
   // A signal during the set-up also ends the run cleanly, after its first step (main's guard).
   // Bad input throws ConfigError: exit 2 with its one line (main).
@@ -377,6 +396,7 @@ int run_impact(const ImpactOptions& options) {
   }
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);
+  refuse_foreign_checkpoint(run_dir->checkpoint(), options.out_dir);
   if (!options.quiet) {
     print_case(config, options.out_dir);
     if (checkpoint)

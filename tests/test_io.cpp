@@ -1551,12 +1551,17 @@ TEST(RunDirectory, RemovesTheDebrisOfAKilledRun) {
   write_file(dir / ".run.part-999999" / "fields.nc.part", "debris");
   fs::create_directories(dir / ".run.old-999999");
   fs::create_directories(dir / ".other.part-999999");  // another target's: not ours
+  // Not a killed run's: no process id, or a live process's (init's).
+  const std::set<std::string> users = {".other.part-999999", ".run.part-mydata", ".run.part-",
+                                       ".run.part-1", ".run.old-1x"};
+  for (const std::string& name : users) write_file(dir / name, "the user's");
   {
     RunDirectory run(dir / "run");
-    EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{".other.part-999999", ".run.lock",
-                                                           run.staging().filename().string()}));
+    std::set<std::string> expected = users;
+    expected.insert({".run.lock", run.staging().filename().string()});
+    EXPECT_EQ(names_in(dir.path()), expected);
   }
-  EXPECT_EQ(names_in(dir.path()), std::set<std::string>{".other.part-999999"});
+  EXPECT_EQ(names_in(dir.path()), users);
 }
 
 TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
@@ -1599,6 +1604,11 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   write_file(dir / "run" / "gauss" / "plot.png", "x");
   EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
                                       (dir / "run" / "gauss" / "plot.png").string() +
+                                      "', which ehlsim did not write" + policy);
+  fs::remove(dir / "run" / "gauss" / "plot.png");
+  fs::create_directories(dir / "run" / "mine" / "empty");  // the user's: a run makes none
+  EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
+                                      (dir / "run" / "mine" / "empty").string() +
                                       "', which ehlsim did not write" + policy);
   write_file(dir / "afile", "x");
   EXPECT_EQ(message(dir / "afile"),
@@ -1756,6 +1766,7 @@ TEST(RunDirectory, RefusesTheWorkingDirectoryOrOneThatHoldsIt) {
   const fs::path target = dir / "run";
   write_earlier_run(target);
   fs::create_directories(target / "gauss");
+  write_file(target / "gauss" / "spike_profiles.csv", "x");  // ehlsim spike --out run/gauss
   const fs::path home = fs::current_path();
   const auto refusal = [&](const fs::path& cwd, const fs::path& out, bool amend) {
     fs::current_path(cwd);

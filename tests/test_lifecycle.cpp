@@ -50,6 +50,7 @@ using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
 using ehlsim::testing::TempDir;
+using ehlsim::testing::write_file;
 
 /// A 33^2 rigid run of a few steps (well under a second).
 const std::string kTiny = "--quiet --set grid.points=33 --set body.elastic=false ";
@@ -707,6 +708,58 @@ std::vector<std::string> rows(const fs::path& run) {
   std::getline(in, line);
   while (std::getline(in, line)) out.push_back(line);
   return out;
+}
+
+TEST(Lifecycle, ARunLeavesACheckpointBesideItsDirectoryThatItDidNotWrite) {
+  // A run into DIR deleted DIR.checkpoint.nc when it completed, whatever it
+  // was: an interrupted run's state, a file or a directory of the user's.
+  TempDir work;
+  const fs::path run = work / "run";
+  const fs::path beside = work / "run.checkpoint.nc";
+  ASSERT_EQ(
+      run_into(work / "earlier", "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code,
+      0);
+  fs::copy_file(work / "earlier" / "checkpoint.nc", beside);
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  EXPECT_EQ(read_file(beside), read_file(work / "earlier" / "checkpoint.nc"));
+  ASSERT_EQ(ehlsim("rolling --quiet --set grid.points=33 --out " + quote(run.string())).exit_code,
+            0);
+  EXPECT_TRUE(fs::exists(beside));
+  // Something else by that name is refused before the run: its checkpoint goes there.
+  fs::remove(beside);
+  write_file(beside, "my notes\n");
+  const Result file = run_into(run, "--set time.T_end=0.2");
+  EXPECT_EQ(file.exit_code, 2);
+  EXPECT_EQ(file.err, "ehlsim: error: --out '" + run.string() +
+                          "': a run keeps its checkpoint beside it, and cannot replace '" +
+                          beside.string() +
+                          "': not a NetCDF-4 file (ehlsim reads and writes NetCDF-4/HDF5 only; "
+                          "the file does not start with the HDF5 signature): move it, or choose "
+                          "another --out\n");
+  EXPECT_EQ(read_file(beside), "my notes\n");
+  fs::remove(beside);
+  fs::create_directory(beside);
+  EXPECT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 2);
+  EXPECT_TRUE(fs::is_directory(beside));
+}
+
+TEST(Lifecycle, ARunToTEndCheckpointsItsLastStepAndALaterTEndContinuesIt) {
+  TempDir work;
+  const fs::path whole = work / "whole";
+  ASSERT_EQ(run_into(whole, "--set time.T_end=0.5").exit_code, 0);
+  const fs::path part = work / "part";
+  ASSERT_EQ(run_into(part, "--set time.T_end=0.3 --set output.checkpoint_every=4").exit_code, 0);
+  const ehlsim::Checkpoint last = ehlsim::read_checkpoint(part / "checkpoint.nc");
+  const std::vector<std::string> first = rows(part);
+  EXPECT_EQ(last.state.step, static_cast<int>(first.size()));  // not a multiple of 4: the last
+  const Result more =
+      run_into(part, "--set time.T_end=0.5 --restart " + quote((part / "checkpoint.nc").string()) +
+                         " --set output.checkpoint_every=4");
+  ASSERT_EQ(more.exit_code, 0) << more.err;
+  const std::vector<std::string> all = rows(whole);
+  const std::vector<std::string> tail = rows(part);
+  ASSERT_EQ(first.size() + tail.size(), all.size());
+  EXPECT_TRUE(std::equal(tail.begin(), tail.end(), all.begin() + static_cast<long>(first.size())));
 }
 
 TEST(Lifecycle, SigintCheckpointsAndTheResumedRunHasTheSameBits) {

@@ -969,8 +969,12 @@ RunSummary ImpactProblem::Impl::run(ImpactObserver& observer) {
     add_to_summary(record);
     const bool stop = !end && observer.stop_requested();  // e.g. SIGINT: checkpoint, then stop
     if (stop) stop_after(step, run);
-    if (state_sink && !end && state_every > 0 && step % state_every == 0)
-      state_sink(state_after(step, run));
+    // Every K-th step, and the last of a run that reached time.T_end: a
+    // restart with a later T_end continues it.  After lift-off or rest there
+    // is nothing to continue.
+    const bool checkpointed =
+        state_every > 0 && (end ? *end == RunOutcome::TEnd : step % state_every == 0);
+    if (state_sink && checkpointed) state_sink(state_after(step, run));
     if (end) {
       summary.outcome = *end;
       summary.final_energy = run.energy / (0.5 * cfg.V0 * cfg.V0);

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -122,11 +123,15 @@ bool is_ehlsim_file_below(const fs::path& file) {
 }
 
 /// The first entry below `dir` that is not a file ehlsim writes ("" if none).
+/// An empty directory is the user's: ehlsim makes none in a run.
 fs::path first_foreign_entry(const fs::path& dir) {
   for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator();
        ++it) {
     if (it->is_symlink()) return it->path();
-    if (it->is_directory()) continue;
+    if (it->is_directory()) {
+      if (fs::is_empty(it->path())) return it->path();
+      continue;
+    }
     const bool ehlsims = it.depth() == 0 ? is_ehlsim_file_name(it->path().filename().string())
                                          : is_ehlsim_file_below(it->path());
     if (!it->is_regular_file() || !ehlsims) return it->path();
@@ -165,6 +170,19 @@ std::string read_lock_holder(int fd) {
   return n > 0 ? std::string(text.data(), static_cast<std::size_t>(n)) : std::string("starting");
 }
 
+/// True when `name` is "<prefix>PID" for the id of a process that has ended:
+/// what a killed writer left.  A live process's ("<prefix>1"), or a name
+/// that is no process id ("<prefix>mydata"), is the user's, and stays.
+bool left_by_ended_process(std::string_view name, std::string_view prefix) {
+  if (!name.starts_with(prefix)) return false;
+  const std::string_view digits = name.substr(prefix.size());
+  if (digits.empty() || digits.size() > kLongestPidDigits ||
+      digits.find_first_not_of("0123456789") != std::string_view::npos)
+    return false;
+  const pid_t pid = static_cast<pid_t>(std::stol(std::string(digits)));
+  return pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH;
+}
+
 /// The staging directories and swapped-out runs that killed runs into `target` left.
 void remove_debris(const fs::path& target) {
   const std::string staging = fmt::format(".{}{}", target.filename().string(), kStagingInfix);
@@ -172,7 +190,8 @@ void remove_debris(const fs::path& target) {
   std::error_code ec;
   for (const fs::directory_entry& entry : fs::directory_iterator(target.parent_path(), ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.starts_with(staging) || name.starts_with(old)) fs::remove_all(entry.path(), ec);
+    if (left_by_ended_process(name, staging) || left_by_ended_process(name, old))
+      fs::remove_all(entry.path(), ec);
   }
 }
 
@@ -505,7 +524,7 @@ RunDirectory::~RunDirectory() {
 
 fs::path RunDirectory::checkpoint() const { return sibling(directory_, "", kCheckpointSuffix); }
 
-void RunDirectory::publish(bool with_checkpoint) {
+void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
   if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);
   if (amend_) {
     // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
@@ -521,9 +540,11 @@ void RunDirectory::publish(bool with_checkpoint) {
   const fs::path old = put_in_place(staging_, resolved_, fs::exists(resolved_));
   published_ = true;
   settle_replacement(resolved_, old);
-  // A new run supersedes the checkpoint of an interrupted one; an amendment does not.
+  // The checkpoint went along as DIR/checkpoint.nc, or the run completed
+  // the one it resumed.  Any other stays: an interrupted run's, which a run
+  // without checkpoints or a rolling run into DIR deleted.
   std::error_code ec;
-  if (!amend_) fs::remove(checkpoint(), ec);
+  if (with_checkpoint || resumed_from_checkpoint) fs::remove(checkpoint(), ec);
 }
 
 void RunDirectory::check_target_unchanged() const {

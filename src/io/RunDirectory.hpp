@@ -93,14 +93,16 @@ class RunDirectory {
   /// (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
 
-  /// Makes the staged run DIR (with `checkpoint()` as DIR/checkpoint.nc when
-  /// `with_checkpoint`).  Throws std::runtime_error when a file cannot be
+  /// Makes the staged run DIR, with `checkpoint()` moved to DIR/checkpoint.nc
+  /// when `with_checkpoint`; `checkpoint()` is removed then, or when the run
+  /// completed the state it resumed from it (`resumed_from_checkpoint`), and
+  /// else left as it is.  Throws std::runtime_error when a file cannot be
   /// synced or renamed, or when DIR changed meanwhile (a foreign file in it,
   /// an entry of an amended DIR added, removed or replaced); PublishInterrupted
   /// when SIGINT, SIGTERM or SIGHUP came before the swap (io/Interrupt.hpp).
   /// DIR then still holds the earlier run.  The swap is the commit point: a
   /// signal after it does not undo the published run.
-  void publish(bool with_checkpoint = false);
+  void publish(bool with_checkpoint = false, bool resumed_from_checkpoint = false);
   [[nodiscard]] bool published() const { return published_; }
 
  private:
