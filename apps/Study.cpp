@@ -438,6 +438,9 @@ void check_study_options(const StudyOptions& options) {
   }
   for (const std::string& assignment : options.overrides) {
     const std::string key = override_key(assignment);
+    // A key no case knows is bad input of its own: "unknown key", not "the study sets it".
+    if (key.find('.') != std::string::npos && find_parameter(key) == nullptr)
+      (void)load_config(std::nullopt, {assignment});
     if (const auto why = study_owned(key)) {
       throw ConfigError(fmt::format("--set '{}': the study sets {} itself in every case ({}); "
                                     "--set applies the other keys to every case",

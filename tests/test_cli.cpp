@@ -630,6 +630,10 @@ TEST(Cli, StudyRejectsBadInputBeforeAnyRun) {
   expect_bad_input(ehlsim("study --grid 33 --set case.M=3 --out " + quote(out.string())),
                    "--set 'case.M=3': the study sets case.M itself in every case (M = 100, 50, "
                    "20, 10 with L = 10); --set applies the other keys to every case");
+  // A key no case knows is unknown, whichever section it names.
+  expect_bad_input(ehlsim("study --grid 33 --set case.bogus=1 --out " + quote(out.string())),
+                   "unknown key 'case.bogus' (known keys in [case]: M, L, lambda_bar, alpha_bar) "
+                   "(--set)");
   // A Roelands law's own z would set another L in every case.
   expect_bad_input(
       ehlsim("study --grid 33 --set lubricant.z=0.6 --out " + quote(out.string())),

@@ -1792,6 +1792,25 @@ TEST(RunDirectory, RefusesTheWorkingDirectoryOrOneThatHoldsIt) {
   EXPECT_EQ(refusal(target, dir / "elsewhere", false), "accepted");
 }
 
+TEST(RunDirectory, ARelativeDirectoryInADeletedWorkingDirectoryIsBadInput) {
+  // getcwd(3) fails there: "filesystem error: cannot make absolute path", exit 1.
+  TempDir dir;
+  const fs::path home = fs::current_path();
+  fs::create_directory(dir / "gone");
+  fs::current_path(dir / "gone");
+  fs::remove(dir / "gone");
+  std::string message = "accepted";
+  try {
+    RunDirectory run("run");
+  } catch (const ConfigError& e) {
+    message = e.what();
+  }
+  fs::current_path(home);
+  EXPECT_EQ(message,
+            "--out 'run': the working directory is unknown (No such file or directory; was it "
+            "deleted?): give --out as an absolute path, or run from an existing directory");
+}
+
 TEST(RunDirectory, ASignalBeforeTheSwapLeavesTheTargetAsItWas) {
   TempDir dir;
   const fs::path target = dir / "run";

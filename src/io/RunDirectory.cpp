@@ -477,7 +477,17 @@ ConfigError link_loop_error(const fs::path& shown) {
 
 fs::path resolve_run_directory(const fs::path& target) {
   if (target.empty()) throw ConfigError("--out '': the run directory needs a name", "--out");
-  const fs::path absolute = without_trailing_separator(fs::absolute(target).lexically_normal());
+  std::error_code ec;
+  const fs::path from_cwd = fs::absolute(target, ec);
+  if (ec) {
+    // getcwd(3) fails in a working directory that was deleted.
+    throw ConfigError(fmt::format("--out '{}': the working directory is unknown ({}; was it "
+                                  "deleted?): give --out as an absolute path, or run from an "
+                                  "existing directory",
+                                  target.string(), ec.message()),
+                      "--out");
+  }
+  const fs::path absolute = without_trailing_separator(from_cwd.lexically_normal());
   if (absolute.filename().empty() || absolute.filename() == "..") {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
