@@ -1,5 +1,7 @@
 #include "Cli.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -56,6 +58,45 @@ CLI::Validator not_empty(const std::string& what) {
         return value.empty() ? "must name " + what + ", not be empty" : std::string();
       },
       "", "NOT_EMPTY");
+}
+
+namespace {
+/// The option `name` ("--grid") of `app` or of one of its commands, or nullptr.
+const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
+  if (const CLI::Option* option = app.get_option_no_throw(name)) return option;
+  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; }))
+    if (const CLI::Option* option = command->get_option_no_throw(name)) return option;
+  return nullptr;
+}
+
+/// What an option of CLI11's type name `type` takes, for messages.
+std::string value_text(const std::string& type) {
+  if (type == "INT") return "an integer";
+  if (type == "UINT") return "a whole number";
+  if (type == "FLOAT") return "a number";
+  return "a value of type " + type;
+}
+}  // namespace
+
+std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, int argc,
+                             char** argv) {
+  const std::string what = error.what();
+  constexpr std::string_view kNotConverted = "Could not convert: ";
+  constexpr std::string_view kOnce = ": At Most 1 required but received ";
+  if (what.starts_with(kNotConverted)) {
+    const std::string given = what.substr(kNotConverted.size());  // "--grid = abc"
+    if (const CLI::Option* option = find_option(app, given.substr(0, given.find(" = "))))
+      return fmt::format("{}: must be {} (see --help)", given, value_text(option->get_type_name()));
+  } else if (const std::size_t at = what.find(kOnce); at != std::string::npos) {
+    return fmt::format("{} is given {} times: give it once", what.substr(0, at),
+                       what.substr(at + kOnce.size()));
+  } else if (what == "A subcommand is required") {
+    const std::string commands = "commands: impact, spike, study, rolling; try ehlsim --help";
+    return argc > 1 ? fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
+                                  ehlsim::echo_input(argv[1]), commands)
+                    : fmt::format("no command given ({})", commands);
+  }
+  return what;
 }
 
 nlohmann::json invocation_json(const CaseOptions& options, const nlohmann::json& memory) {

@@ -69,4 +69,11 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 /// ("--out: must name a directory, not be empty").
 [[nodiscard]] CLI::Validator not_empty(const std::string& what);
 
+/// The one line for a command-line error of CLI11 that says what is allowed:
+/// "Could not convert: --grid = abc" names the type the option takes, "At
+/// Most 1 required but received 2" that the option is given once, and "A
+/// subcommand is required" the option that stood in its place (`argv`).
+[[nodiscard]] std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app,
+                                           int argc, char** argv);
+
 }  // namespace cli

@@ -511,7 +511,7 @@ int run(int argc, char** argv) {
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) {
       return app.exit(e);  // --help, --version
     }
-    print_error(e.what());
+    print_error(cli::parse_error_text(e, app, argc, argv));
     return kExitBadInput;
   }
   if (impact_cmd->parsed()) return run_impact(impact);

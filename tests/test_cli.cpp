@@ -148,6 +148,21 @@ TEST(Cli, UnknownCommandIsNamed) {
                    "ehlsim --help)");
 }
 
+TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
+  // CLI11's own texts: "Could not convert: --grid = abc", "--out: At Most 1
+  // required but received 2", "A subcommand is required".
+  expect_bad_input(ehlsim("study --grid abc --out x"),
+                   "--grid = abc: must be an integer (see --help)");
+  expect_bad_input(ehlsim("study --jobs 2.5 --out x"),
+                   "--jobs = 2.5: must be an integer (see --help)");
+  expect_bad_input(ehlsim("rolling --out a --out b"), "--out is given 2 times: give it once");
+  expect_bad_input(ehlsim("--bogus"),
+                   "'--bogus' is neither a command nor an option of ehlsim (commands: impact, "
+                   "spike, study, rolling; try ehlsim --help)");
+  expect_bad_input(ehlsim(""),
+                   "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
+}
+
 TEST(Cli, RunawayValuesAreShortenedInErrors) {
   TempDir dir;
   constexpr std::size_t kBytes = 10'000'000;
