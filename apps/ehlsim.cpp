@@ -357,7 +357,11 @@ int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, con
   // A failure of the solution names its step and repeats, bit for bit, from
   // the checkpoint unless a setting changes; one of the disk does neither.
   const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
-  const std::string what = (repeats ? std::string() : last.where()) + e.what();
+  std::string what = (repeats ? std::string() : last.where()) + e.what();
+  // A signal that came while the failing write was under way (a full disk)
+  // did not end the run, but was sent: the line says it was seen.
+  if (const int signal = InterruptGuard::received(); signal != 0)
+    what += fmt::format(" ({} came meanwhile)", signal_name(signal));
   if (kept.step == 0) {
     print_error(what);
     return kExitFailure;
