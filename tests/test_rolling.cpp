@@ -900,6 +900,13 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "semi-axis, 1, at case.D = 1: use at least 2049 points or a smaller domain");
   expect_refused("--set case.D=30 --set grid.points=9",
                  "semi-axis, 0.1677, at case.D = 30: use at least 65 points");
+  // No grid resolves D = 1e6: it said "use a smaller domain" on the smallest one.
+  expect_refused(
+      "--set case.D=1e6 --set grid.points=4097 --set grid.x_min=-2.2 --set grid.x_max=2.2 --set "
+      "grid.y_min=-2.2 --set grid.y_max=2.2",
+      "at case.D = 1e+06: even the smallest domain that holds the contact (4.399 wide) needs about "
+      "5.78e+03 points per side, more than the 4097 allowed: this ellipticity is beyond what the "
+      "grid can resolve");
   // Moes groups out of double precision (W = 0, M = 0 x inf = NaN).
   expect_refused(
       "--set physical.Rx=1e300 --set physical.load=10 --set physical.u1=1 --set physical.u2=1 "

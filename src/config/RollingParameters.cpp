@@ -184,10 +184,18 @@ void check_dry_contact_resolved(const Inputs& in, const RollingConfig& c) {
   if (mesh > widest) {
     int points = c.grid_points;
     while (points < kMaxGridPoints && width / (points - 1) > widest) points = 2 * points - 1;
-    const std::string remedy =
-        width / (points - 1) > widest
-            ? "use a smaller domain"
-            : fmt::format("use at least {} points or a smaller domain", points);
+    // The smallest domain that holds the contact spans both semi-axes' diameters.
+    const double least_width = 2.0 * std::max(hz.ax, hz.ay);
+    const double least_points = least_width / widest + 1.0;
+    std::string remedy = fmt::format("use at least {} points or a smaller domain", points);
+    if (least_points > kMaxGridPoints)
+      remedy = fmt::format(
+          "even the smallest domain that holds the contact ({:.4g} wide) needs about {:.3g} "
+          "points per side, more than the {} allowed: this ellipticity is beyond what the grid "
+          "can resolve",
+          least_width, least_points, kMaxGridPoints);
+    else if (width / (points - 1) > widest)
+      remedy = "use a smaller domain";
     in.fail("grid.points",
             fmt::format("the mesh, {:.4g}, is wider than the dry Hertz contact's smaller "
                         "semi-axis, {:.4g}, at {}: {}",
