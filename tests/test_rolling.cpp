@@ -577,6 +577,20 @@ TEST(Rolling, AFailureBeyondTheConvergedLSaysSoAndWhatMayHelp) {
   EXPECT_GT(r.Hm, 0.0);
 }
 
+TEST(Rolling, AFilmNoGridResolvesSaysSo) {
+  // A rigid film at D = 1e295 is 0 by the formula: the hint asked for "at
+  // least about inf" points.
+  const RollingConfig config = load_rolling_config(
+      std::nullopt,
+      {"body.elastic=false", "case.M=10", "case.L=0", "case.D=1e295", "grid.points=33"});
+  const std::string message = failure_message(config);
+  EXPECT_NE(message.find("; the rigid formula's film Hc = 0 at D = 1e+295 makes the pressure zone "
+                         "about sqrt(2 Hc) = 0 wide: no grid resolves it"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find("inf"), std::string::npos) << message;
+}
+
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
   // One cycle cannot converge anything.  Without the fallback the message
   // names the cycles and the other deformation update.

@@ -546,6 +546,12 @@ std::string resolution_hint(const RollingConfig& c, double mesh) {
   const double meshes = zone.width / mesh;
   if (!(meshes < zone.min_meshes)) return {};
   const double points = (c.x_max - c.x_min) * zone.hint_meshes / zone.width + 1.0;
+  // case.D = 1e295 gave a rigid Hc of 0, and "use at least inf points".
+  if (!std::isfinite(points))
+    return fmt::format(
+        "; the {}formula's film Hc = {:.3g} at D = {:.3g} makes {} = {:.3g} wide: no grid "
+        "resolves it",
+        c.elastic ? "" : "rigid ", zone.hc, c.D, zone.name, zone.width);
   return fmt::format(
       "; the {}formula's film Hc = {:.3g} makes {} = {:.3g} wide, {:.2g} meshes: the grid cannot "
       "resolve this film: use more points (at least about {:.2g} per side, for {:g} meshes "
