@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <string>
 
@@ -97,6 +98,17 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
                     : fmt::format("no command given ({})", commands);
   }
   return what;
+}
+
+std::string printable(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    if (std::iscntrl(static_cast<unsigned char>(c)) != 0)
+      out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+    else
+      out += c;
+  }
+  return out;
 }
 
 nlohmann::json invocation_json(const CaseOptions& options, const nlohmann::json& memory) {

@@ -69,6 +69,10 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 /// ("--out: must name a directory, not be empty").
 [[nodiscard]] CLI::Validator not_empty(const std::string& what);
 
+/// `text` with its control characters as escapes ("\x0a"): a path with a
+/// newline in it kept a one-line message from being one line.
+[[nodiscard]] std::string printable(std::string_view text);
+
 /// The one line for a command-line error of CLI11 that says what is allowed:
 /// "Could not convert: --grid = abc" names the type the option takes, "At
 /// Most 1 required but received 2" that the option is given once, and "A

@@ -175,6 +175,25 @@ std::string shell_word(const std::string& arg) {
            std::string_view("_-+=.,:/@%").find(c) != std::string_view::npos;
   });
   if (safe) return arg;
+  // A newline or another control character (--out $'nl\nrun') would break the
+  // one line: bash's $'...' quoting writes it as an escape.
+  const bool control = std::any_of(arg.begin(), arg.end(), [](char c) {
+    return std::iscntrl(static_cast<unsigned char>(c)) != 0;
+  });
+  if (control) {
+    std::string out = "$'";
+    for (const char c : arg) {
+      if (c == '\'' || c == '\\') {
+        out += '\\';
+        out += c;
+      } else if (std::iscntrl(static_cast<unsigned char>(c)) != 0) {
+        out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+      } else {
+        out += c;
+      }
+    }
+    return out + "'";
+  }
   std::string out = "'";
   for (const char c : arg) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return out + "'";
@@ -278,7 +297,7 @@ int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept,
   std::fprintf(stderr,
                "ehlsim: interrupted by %s after the last step, before the run was published: "
                "'%s' was not changed; %s\n",
-               signal_name(signal).c_str(), options.out_dir.c_str(), next.c_str());
+               signal_name(signal).c_str(), cli::printable(options.out_dir).c_str(), next.c_str());
   return exit_code_for_signal(signal);
 }
 
@@ -308,8 +327,8 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
     std::fprintf(stderr,
                  "ehlsim: interrupted by %s while checkpoint '%s' was read, before the run "
                  "started: '%s' was not changed; run the command again\n",
-                 signal_name(e.signal).c_str(), options.restart_file.c_str(),
-                 options.out_dir.c_str());
+                 signal_name(e.signal).c_str(), cli::printable(options.restart_file).c_str(),
+                 cli::printable(options.out_dir).c_str());
     return exit_code_for_signal(e.signal);
   } catch (const std::runtime_error& e) {
     print_error(e.what());  // names the file, and the field of a damaged one
@@ -342,7 +361,7 @@ int report_interrupted(const ImpactOptions& options, const KeptCheckpoint& kept,
     std::fprintf(stderr,
                  "ehlsim: interrupted by %s before the first step ended; nothing was written to "
                  "%s\n",
-                 signal_name(signal).c_str(), options.out_dir.c_str());
+                 signal_name(signal).c_str(), cli::printable(options.out_dir).c_str());
   } else {
     std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
                  signal_name(signal).c_str(), e.step, e.T,
@@ -464,7 +483,7 @@ int run_spike(const SpikeOptions& options) {
   const auto interrupted = [&out]() {
     const int signal = InterruptGuard::received();
     std::fprintf(stderr, "ehlsim: interrupted by %s: the spike files in '%s' were not changed\n",
-                 signal_name(signal).c_str(), out.c_str());
+                 signal_name(signal).c_str(), cli::printable(out.string()).c_str());
     return exit_code_for_signal(signal);
   };
   try {

@@ -800,6 +800,24 @@ TEST(Lifecycle, SigintCheckpointsAndTheResumedRunHasTheSameBits) {
   EXPECT_FALSE(fs::exists(kept));  // the completed run supersedes it
 }
 
+TEST(Lifecycle, AResumeLineOfADirectoryWithANewlineIsOneLineAndWorks) {
+  // --out $'nl\nrun': the resume line spanned three lines of stderr.
+  TempDir work;
+  const fs::path run = work / "nl\nrun";
+  const Result r = interrupted_run(run, SIGINT);
+  ASSERT_EQ(r.exit_code, 130) << r.err;
+  const std::string line = last_line(r.err);
+  const std::string quoted = "$'" + work.path().string() + "/nl\\x0arun";
+  EXPECT_NE(line.find("--out " + quoted + "' --restart " + quoted + ".checkpoint.nc'"),
+            std::string::npos)
+      << line;
+  // bash reads the escape back: the printed command continues the run.
+  const std::string command = line.substr(line.find("resume with: ") + 13);
+  const int status = std::system(("bash -c " + quote(command + " --quiet")).c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_TRUE(fs::exists(run / "run.json"));
+}
+
 TEST(Lifecycle, SigtermAndSighupLeaveTheEarlierRunAndACheckpoint) {
   for (const auto& [signal, name, code] :
        {std::tuple{SIGTERM, "SIGTERM", 143}, std::tuple{SIGHUP, "SIGHUP", 129}}) {
