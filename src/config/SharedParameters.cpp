@@ -215,7 +215,8 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                       at_most(kMaxLocalNewtonHalfWidth), false,
                       "after each cycle that leaves the finest grid above the tolerance, one "
                       "Newton step on the points within this many meshes of the largest "
-                      "residuals (0: none)"));
+                      "residuals (0: none; each window is a dense solve of (2n+1)^2 unknowns: "
+                      "20 costs about 0.4 s per cycle on 65^2, 6 about 0.005 s)"));
   r.push_back(integer("solver.local_newton_windows", defaults.local_newton_windows, at_least(0),
                       at_most(kMaxLocalNewtonWindows), false,
                       "the most windows of each local Newton step, centred on the largest "
