@@ -307,11 +307,25 @@ TEST(RegistryErrors, AKeyNestedDeeperThanAnyOfEhlsimsIsRefusedBeforeTheParser) {
   TempDir dir;
   std::string parts = "x";
   for (int i = 0; i < 50000; ++i) parts += ".x";
-  const std::string deep = "deep.toml:2: a key nested more than 256 levels deep";
-  for (const std::string& text :
-       {"[case]\n" + parts + " = 1\n", "\n[" + parts + "]\n", "\nv = { " + parts + " = 1 }\n"}) {
+  std::string part_key = "a";
+  for (int i = 0; i < 249; ++i) part_key += ".a";
+  std::string nested = "1";
+  for (int i = 0; i < 150; ++i) nested = "{" + part_key + " = " + nested + "}";
+  // The deep line: 2 for each, 3 after a string whose line ends in a backslash.
+  const std::vector<std::pair<std::string, int>> files = {
+      {"[case]\n" + parts + " = 1\n", 2},
+      {"\n[" + parts + "]\n", 2},
+      {"\nv = { " + parts + " = 1 }\n", 2},
+      // 150 inline tables, each under a key of 250 parts: each key passed a
+      // count of the dots of one key, and the file crashed the parser too.
+      {"[case]\nM = " + nested + "\n", 2},
+      {"x = \"\"\"a\\\n b\"\"\"\n" + parts + " = 1\n", 3}};
+  for (const auto& [text, line] : files) {
     const std::string message = config_error(write_file(dir / "deep.toml", text), {});
-    EXPECT_NE(message.find(deep), std::string::npos) << message.substr(0, 200);
+    EXPECT_NE(message.find("deep.toml:" + std::to_string(line) +
+                           ": keys, tables and values nested more than 256 levels deep"),
+              std::string::npos)
+        << message.substr(0, 200);
   }
   // Dots in comments, strings and numbers are no keys: such a file reads.
   const std::string dots(1000, '.');

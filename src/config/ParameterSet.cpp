@@ -39,11 +39,11 @@ namespace {
 /// output.snapshot_times list some kB; a runaway value of 10 MB is still read
 /// (to be refused with its key named, shortened).
 constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
-/// The most dots a key or table header of a config file may hold outside
-/// quotes.  Each dot is a level of tables, and toml++ 3.3 parses and frees
-/// them recursively: a key of 50 000 parts (100 kB) overflowed the stack
-/// (SIGSEGV).  ehlsim's keys have one (section.key); toml++ limits the
-/// nesting of values (inline tables, arrays) to 256 levels itself.
+/// The most levels a config file may nest: each dot of a key outside quotes
+/// is a level of tables, each bracket or brace one more, and toml++ 3.3
+/// parses and frees them recursively: a key of 50 000 parts (100 kB), or 150
+/// inline tables each under a key of 250 parts, overflowed the stack
+/// (SIGSEGV).  ehlsim's keys have one dot (section.key).
 constexpr int kMaxKeyDots = 256;
 }  // namespace
 
@@ -498,7 +498,9 @@ std::size_t end_of_string(std::string_view text, std::size_t begin, std::size_t&
       if (!multi_line) return i - 1;  // unterminated: the newline is the parser's
       ++line;
     } else if (text[i] == '\\' && quote == '"') {
-      ++i;  // an escape: the next character does not close the string
+      // An escape: the next character does not close the string (a newline
+      // after a line-ending backslash is still a line).
+      if (++i < text.size() && text[i] == '\n') ++line;
     } else if (text[i] == quote && (!multi_line || text.substr(i, 3) == std::string(3, quote))) {
       return multi_line ? i + 2 : i;
     }
@@ -506,11 +508,44 @@ std::size_t end_of_string(std::string_view text, std::size_t begin, std::size_t&
   return text.size();
 }
 
-/// Throws ConfigError, naming the line, for a key or header of `text` with more
-/// than kMaxKeyDots dots outside quotes: dots between two of the characters
-/// that end a key or a value (newline, '=', ',', brackets and braces) count.
+/// The levels of tables and values that a config file nests, as far as
+/// refuse_deep_keys follows them: each dot of a key outside quotes and each
+/// bracket or brace opens one.
+class NestingDepth {
+ public:
+  /// The depth of the part of a key read so far (one more per dot).
+  [[nodiscard]] int key() const { return base() + dots_; }
+  void dot() { ++dots_; }
+  /// '=': the key ends; a table or array after it nests below it.
+  void assign() {
+    value_base_ = key() + 1;
+    dots_ = 0;
+  }
+  /// '{' or '[': a level below the key before it, or below the container.
+  void open() {
+    open_.push_back(std::max(value_base_, base() + dots_ + 1));
+    value_base_ = dots_ = 0;
+  }
+  /// '}' or ']'.
+  void close() {
+    if (!open_.empty()) open_.pop_back();
+    value_base_ = dots_ = 0;
+  }
+  /// ',' or a newline: the next key starts.
+  void separate() { value_base_ = dots_ = 0; }
+
+ private:
+  [[nodiscard]] int base() const { return open_.empty() ? 0 : open_.back(); }
+  std::vector<int> open_;  ///< the depth inside each open bracket or brace
+  int value_base_ = 0;     ///< the depth below the last key, until a separator
+  int dots_ = 0;
+};
+
+/// Throws ConfigError, naming the line, for a file whose keys, tables and
+/// values nest more than kMaxKeyDots levels (dots of keys outside quotes,
+/// brackets and braces): toml++ recurses on each.
 void refuse_deep_keys(std::string_view text, const std::filesystem::path& path) {
-  int dots = 0;
+  NestingDepth depth;
   std::size_t line = 1;
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
@@ -518,13 +553,23 @@ void refuse_deep_keys(std::string_view text, const std::filesystem::path& path) 
       i = end_of_string(text, i, line);
     } else if (c == '#') {
       while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
-    } else if (c == '.' && ++dots > kMaxKeyDots) {
-      throw ConfigError(fmt::format(
-          "{}:{}: a key nested more than {} levels deep (ehlsim's keys are section.key)",
-          path.string(), line, kMaxKeyDots));
-    } else if (std::string_view("\n=,[]{}").find(c) != std::string_view::npos) {
-      dots = 0;
+    } else if (c == '.') {
+      depth.dot();
+    } else if (c == '=') {
+      depth.assign();
+    } else if (c == '{' || c == '[') {
+      depth.open();
+    } else if (c == '}' || c == ']') {
+      depth.close();
+    } else if (c == ',' || c == '\n') {
+      depth.separate();
       if (c == '\n') ++line;
+    }
+    if (depth.key() > kMaxKeyDots) {
+      throw ConfigError(fmt::format(
+          "{}:{}: keys, tables and values nested more than {} levels deep (ehlsim's keys are "
+          "section.key)",
+          path.string(), line, kMaxKeyDots));
     }
   }
 }
