@@ -43,6 +43,7 @@
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "impact/RunGuards.hpp"
+#include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
@@ -393,16 +394,32 @@ int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, con
 }
 
 /// ConfigError when `checkpoint` (DIR.checkpoint.nc, where the run keeps its
-/// checkpoints, and the state a signal leaves) exists and is no NetCDF-4
-/// file: a user's file or directory by that name was overwritten or deleted.
+/// checkpoints, and the state a signal leaves) or its partial file is not
+/// ehlsim's: a symbolic link (a dangling one was replaced, then deleted), a
+/// directory, or a file that is no NetCDF-4 one (a partial file may be empty:
+/// a run killed as it began one).  The user's file there was overwritten.
 void refuse_foreign_checkpoint(const std::filesystem::path& checkpoint, const std::string& out) {
-  try {
-    require_netcdf4_file(checkpoint, "replace");
-  } catch (const std::runtime_error& e) {
-    throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: move "
-                                  "it, or choose another --out",
-                                  out, e.what()),
-                      "--out");
+  const std::filesystem::path partial = checkpoint.string() + PartialFile::kSuffix;
+  for (const std::filesystem::path& path : {checkpoint, partial}) {
+    std::error_code ec;
+    const std::filesystem::file_status status = std::filesystem::symlink_status(path, ec);
+    std::string why;
+    if (std::filesystem::is_symlink(status)) {
+      why = fmt::format("'{}' is a symbolic link", path.string());
+    } else if (std::filesystem::exists(status) &&
+               !(path == partial && std::filesystem::is_regular_file(status) &&
+                 std::filesystem::is_empty(path, ec))) {
+      try {
+        require_netcdf4_file(path, "replace");
+      } catch (const std::runtime_error& e) {
+        why = e.what();
+      }
+    }
+    if (!why.empty())
+      throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: "
+                                    "move it, or choose another --out",
+                                    out, why),
+                        "--out");
   }
 }
 

@@ -1792,6 +1792,23 @@ TEST(RunDirectory, RefusesTheWorkingDirectoryOrOneThatHoldsIt) {
   EXPECT_EQ(refusal(target, dir / "elsewhere", false), "accepted");
 }
 
+TEST(RunDirectory, APathWithABackslashIsBadInput) {
+  // libnetcdf reads the backslash as a separator: the run failed at its
+  // first NetCDF file, after the lock and the staging directory, with exit 1.
+  TempDir dir;
+  const fs::path target = dir / "a\\b";
+  try {
+    RunDirectory run(target);
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "--out '" + target.string() + "': the path '" + target.string() +
+                  "' holds a backslash, which the NetCDF library reads as a directory "
+                  "separator: choose a path without one");
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
 TEST(RunDirectory, ARelativeDirectoryInADeletedWorkingDirectoryIsBadInput) {
   // getcwd(3) fails there: "filesystem error: cannot make absolute path", exit 1.
   TempDir dir;

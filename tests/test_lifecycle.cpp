@@ -741,6 +741,28 @@ TEST(Lifecycle, ARunLeavesACheckpointBesideItsDirectoryThatItDidNotWrite) {
   fs::create_directory(beside);
   EXPECT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 2);
   EXPECT_TRUE(fs::is_directory(beside));
+  fs::remove(beside);
+  // A dangling link was replaced by the run's checkpoint, then deleted.
+  fs::create_symlink(work / "nothing", beside);
+  const Result link = run_into(run, "--set time.T_end=0.2");
+  EXPECT_EQ(link.exit_code, 2);
+  EXPECT_NE(link.err.find("'" + beside.string() + "' is a symbolic link"), std::string::npos)
+      << link.err;
+  EXPECT_TRUE(fs::is_symlink(beside));
+  fs::remove(beside);
+  // ... and a file where the checkpoint is written before its rename.
+  const fs::path partial = beside.string() + ".part";
+  write_file(partial, "precious\n");
+  EXPECT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 2);
+  EXPECT_EQ(read_file(partial), "precious\n");
+  fs::remove(partial);
+  // Beside DIR as the run directory resolves: "nosuch/../run" wrote it
+  // through a missing directory.
+  const Result dotdot =
+      ehlsim("impact " + kTiny + "--set time.T_end=0.2 --set " +
+             "output.checkpoint_every=1 --out " + quote((work / "nosuch" / ".." / "run").string()));
+  EXPECT_EQ(dotdot.exit_code, 0) << dotdot.err;
+  EXPECT_TRUE(fs::exists(run / "checkpoint.nc"));
 }
 
 TEST(Lifecycle, ARunToTEndCheckpointsItsLastStepAndALaterTEndContinuesIt) {

@@ -492,6 +492,15 @@ fs::path resolve_run_directory(const fs::path& target) {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
+  // libnetcdf reads a backslash as a separator (a Windows path): nc_create of
+  // 'a\b/.../fields.nc.part' failed with "No such file or directory".
+  if (absolute.string().find('\\') != std::string::npos) {
+    throw ConfigError(fmt::format("--out '{}': the path '{}' holds a backslash, which the NetCDF "
+                                  "library reads as a directory separator: choose a path "
+                                  "without one",
+                                  target.string(), absolute.string()),
+                      "--out");
+  }
   check_name_leaves_room(absolute, target);
   create_parent_directories(absolute, target);
   return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
@@ -532,7 +541,12 @@ RunDirectory::~RunDirectory() {
   fs::remove_all(staging_, ec);
 }
 
-fs::path RunDirectory::checkpoint() const { return sibling(directory_, "", kCheckpointSuffix); }
+// Lexically normal, as the run directory resolves: "nosuch/../g4" wrote its
+// checkpoints through a missing directory, and "link/../g5" beside the
+// link's target, away from DIR and its lock.
+fs::path RunDirectory::checkpoint() const {
+  return sibling(directory_.lexically_normal(), "", kCheckpointSuffix);
+}
 
 void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
   if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);
