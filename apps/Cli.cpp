@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "config/Parameters.hpp"
@@ -44,7 +45,8 @@ void print_error(std::string_view message) {
   }
   std::replace(line.begin(), line.end(), '\n', ' ');
   std::replace(line.begin(), line.end(), '\r', ' ');
-  std::fprintf(stderr, "ehlsim: error: %s\n", line.c_str());
+  // Other control characters as escapes: an ESC of an argument reached the terminal.
+  std::fprintf(stderr, "ehlsim: error: %s\n", printable(line).c_str());
 }
 
 void print_warnings(const std::vector<std::string>& warnings) {
@@ -72,7 +74,8 @@ const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
 
 /// What an option of CLI11's type name `type` takes, for messages.
 std::string value_text(const std::string& type) {
-  if (type == "INT") return "an integer";
+  if (type == "INT")
+    return fmt::format("an integer of at most {}", std::numeric_limits<int>::max());
   if (type == "UINT") return "a whole number";
   if (type == "FLOAT") return "a number";
   return "a value of type " + type;

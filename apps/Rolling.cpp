@@ -96,7 +96,7 @@ int run_rolling(const RollingOptions& options) {
   } catch (const RunInterrupted&) {
     const int signal = InterruptGuard::received();
     std::fprintf(stderr, "ehlsim: interrupted by %s; nothing was written to %s\n",
-                 signal_name(signal).c_str(), options.out_dir.c_str());
+                 signal_name(signal).c_str(), cli::printable(options.out_dir).c_str());
     return exit_code_for_signal(signal);
   }
   const double wall =
@@ -107,7 +107,7 @@ int run_rolling(const RollingOptions& options) {
     run_dir.publish(false);
   } catch (const PublishInterrupted& e) {
     std::fprintf(stderr, "ehlsim: interrupted by %s; nothing was written to %s\n",
-                 signal_name(e.signal).c_str(), options.out_dir.c_str());
+                 signal_name(e.signal).c_str(), cli::printable(options.out_dir).c_str());
     return exit_code_for_signal(e.signal);
   }
   if (!options.quiet) print_rolling_summary(config, result, wall, options.out_dir);

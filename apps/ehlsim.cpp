@@ -203,7 +203,10 @@ std::string shell_word(const std::string& arg) {
 /// The command that continues this run from `checkpoint`.
 std::string resume_command(const ImpactOptions& options, const std::filesystem::path& checkpoint) {
   std::vector<std::string> words = {options.program, "impact"};
-  if (!options.config_file.empty()) words.push_back(options.config_file);
+  // A relative path that starts with '-' would be read as an option (it was given after "--").
+  if (!options.config_file.empty())
+    words.push_back(options.config_file.starts_with('-') ? "./" + options.config_file
+                                                         : options.config_file);
   for (const std::string& o : options.overrides) {
     words.push_back("--set");
     words.push_back(o);
@@ -574,7 +577,7 @@ int run_reporting_errors(int argc, char** argv) {
       std::fprintf(stderr,
                    "ehlsim: interrupted by %s while the input was read (%s): nothing "
                    "was written\n",
-                   signal_name(signal).c_str(), e.what());
+                   signal_name(signal).c_str(), cli::printable(e.what()).c_str());
       return exit_code_for_signal(signal);
     }
     print_error(e.what());

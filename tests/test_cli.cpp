@@ -152,13 +152,16 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
   // CLI11's own texts: "Could not convert: --grid = abc", "--out: At Most 1
   // required but received 2", "A subcommand is required".
   expect_bad_input(ehlsim("study --grid abc --out x"),
-                   "--grid = abc: must be an integer (see --help)");
+                   "--grid = abc: must be an integer of at most 2147483647 (see --help)");
   expect_bad_input(ehlsim("study --jobs 2.5 --out x"),
-                   "--jobs = 2.5: must be an integer (see --help)");
+                   "--jobs = 2.5: must be an integer of at most 2147483647 (see --help)");
   expect_bad_input(ehlsim("rolling --out a --out b"), "--out is given 2 times: give it once");
   expect_bad_input(ehlsim("--bogus"),
                    "'--bogus' is neither a command nor an option of ehlsim (commands: impact, "
                    "spike, study, rolling; try ehlsim --help)");
+  // An escape character of an argument reached the terminal raw.
+  expect_bad_input(ehlsim("impact " + quote("--bo\x1bgus")),
+                   "The following argument was not expected: --bo\\x1bgus");
   expect_bad_input(ehlsim(""),
                    "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
 }

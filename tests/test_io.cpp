@@ -1599,6 +1599,11 @@ TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   }
   write_file(dir / "run" / ".gauss.lock", "pid 1");  // the lock's file goes with its holder
   EXPECT_EQ(message(dir / "run"), "accepted");
+  write_file(dir / "run" / ".notes.lock", "my notes");  // a lock's name, the user's text
+  EXPECT_EQ(message(dir / "run"), "--out '" + (dir / "run").string() + "' holds '" +
+                                      (dir / "run" / ".notes.lock").string() +
+                                      "', which ehlsim did not write" + policy);
+  fs::remove(dir / "run" / ".notes.lock");
   write_file(dir / "run" / "rolling.png", "x");  // scripts/plot_rolling.py's figure
   EXPECT_EQ(message(dir / "run"), "accepted");
   write_file(dir / "run" / "gauss" / "plot.png", "x");

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <climits>
@@ -122,6 +123,19 @@ bool is_ehlsim_file_below(const fs::path& file) {
   return name == kSpikeSnapshotsFile || name == kSpikeProfilesFile || name == kAxisProfilesFile;
 }
 
+/// True for a lock file as PathLock writes it: "pid N on host H, started
+/// ...", or empty (its writer killed before it wrote that).  A user's
+/// ".notes.lock" in a run directory was deleted with it.
+bool is_ehlsim_lock(const fs::path& file) {
+  std::ifstream in(file);
+  std::string text;
+  std::getline(in, text);
+  if (text.empty()) return fs::file_size(file) == 0;
+  constexpr std::string_view kHolder = "pid ";  // lock_holder_text
+  return text.starts_with(kHolder) && text.size() > kHolder.size() &&
+         std::isdigit(static_cast<unsigned char>(text[kHolder.size()])) != 0;
+}
+
 /// The first entry below `dir` that is not a file ehlsim writes ("" if none).
 /// An empty directory is the user's: ehlsim makes none in a run.
 fs::path first_foreign_entry(const fs::path& dir) {
@@ -132,9 +146,11 @@ fs::path first_foreign_entry(const fs::path& dir) {
       if (fs::is_empty(it->path())) return it->path();
       continue;
     }
-    const bool ehlsims = it.depth() == 0 ? is_ehlsim_file_name(it->path().filename().string())
-                                         : is_ehlsim_file_below(it->path());
+    const std::string name = it->path().filename().string();
+    const bool ehlsims =
+        it.depth() == 0 ? is_ehlsim_file_name(name) : is_ehlsim_file_below(it->path());
     if (!it->is_regular_file() || !ehlsims) return it->path();
+    if (is_lock_file_name(name) && !is_ehlsim_lock(it->path())) return it->path();
   }
   return {};
 }
