@@ -319,7 +319,10 @@ TEST(RegistryErrors, AKeyNestedDeeperThanAnyOfEhlsimsIsRefusedBeforeTheParser) {
       // 150 inline tables, each under a key of 250 parts: each key passed a
       // count of the dots of one key, and the file crashed the parser too.
       {"[case]\nM = " + nested + "\n", 2},
-      {"x = \"\"\"a\\\n b\"\"\"\n" + parts + " = 1\n", 3}};
+      {"x = \"\"\"a\\\n b\"\"\"\n" + parts + " = 1\n", 3},
+      // A multi-line string that ends in quotes ("""q"""" is q") hid the rest of its line.
+      {"[case]\nx = { note = \"\"\"q\"\"\"\", " + parts + " = 1 }\n", 2},
+      {"[case]\nx = { note = \'\'\'q\'\'\'\'\', " + parts + " = 1 }\n", 2}};
   for (const auto& [text, line] : files) {
     const std::string message = config_error(write_file(dir / "deep.toml", text), {});
     EXPECT_NE(message.find("deep.toml:" + std::to_string(line) +

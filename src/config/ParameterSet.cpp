@@ -502,7 +502,12 @@ std::size_t end_of_string(std::string_view text, std::size_t begin, std::size_t&
       // after a line-ending backslash is still a line).
       if (++i < text.size() && text[i] == '\n') ++line;
     } else if (text[i] == quote && (!multi_line || text.substr(i, 3) == std::string(3, quote))) {
-      return multi_line ? i + 2 : i;
+      if (!multi_line) return i;
+      // Up to two quotes before the closing three belong to the string
+      // ("""q"""" is q"): the run of quotes ends it at its last.
+      std::size_t end = i + 2;
+      while (end + 1 < text.size() && text[end + 1] == quote && end + 1 < i + 5) ++end;
+      return end;
     }
   }
   return text.size();
