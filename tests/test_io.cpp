@@ -1812,6 +1812,18 @@ TEST(RunDirectory, APathWithABackslashIsBadInput) {
                   "separator: choose a path without one");
   }
   EXPECT_TRUE(fs::is_empty(dir.path()));
+  // ... also one behind a link, which the run writes through.
+  fs::create_directory(dir / "x\\y");
+  fs::create_directory_symlink("x\\y", dir / "lnk");
+  try {
+    RunDirectory run(dir / "lnk" / "run");
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("the path '" + (dir / "x\\y" / "run").string() +
+                                         "' holds a backslash"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(RunDirectory, ARelativeDirectoryInADeletedWorkingDirectoryIsBadInput) {

@@ -765,6 +765,34 @@ TEST(Lifecycle, ARunLeavesACheckpointBesideItsDirectoryThatItDidNotWrite) {
   EXPECT_TRUE(fs::exists(run / "checkpoint.nc"));
 }
 
+TEST(Lifecycle, APathIsResolvedAsTheKernelResolvesIt) {
+  TempDir work;
+  // runs -> data/runs, and runs/latest -> ../mine: the run replaced ./mine
+  // (a lexical runs/../mine) and deleted the user's file there.
+  fs::create_directories(work / "data" / "runs");
+  fs::create_directories(work / "mine");
+  write_file(work / "mine" / "thesis.txt", "precious\n");
+  fs::create_directory_symlink("data/runs", work / "runs");
+  ASSERT_EQ(run_into(work / "data" / "mine", "--set time.T_end=0.2").exit_code, 0);
+  fs::create_directory_symlink("../mine", work / "data" / "runs" / "latest");
+  ASSERT_EQ(run_into(work / "runs" / "latest", "--set time.T_end=0.3").exit_code, 0);
+  EXPECT_EQ(read_file(work / "mine" / "thesis.txt"), "precious\n");
+  EXPECT_EQ(names_in(work / "mine"), std::set<std::string>{"thesis.txt"});
+  EXPECT_TRUE(fs::exists(work / "data" / "mine" / "run.json"));
+  // "run/." put its checkpoint into run as ".checkpoint.nc", then refused run.
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run / ".", "--set time.T_end=0.2 --set output.checkpoint_every=1").exit_code,
+            0);
+  EXPECT_TRUE(fs::exists(run / "checkpoint.nc"));
+  EXPECT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  // A file of the user's by the lock's name beside DIR was truncated and deleted.
+  write_file(work / ".q.lock", "my notes\n");
+  const Result lock = run_into(work / "q", "--set time.T_end=0.2");
+  EXPECT_EQ(lock.exit_code, 2);
+  EXPECT_NE(lock.err.find("' beside it is not an ehlsim lock"), std::string::npos) << lock.err;
+  EXPECT_EQ(read_file(work / ".q.lock"), "my notes\n");
+}
+
 TEST(Lifecycle, ARunToTEndCheckpointsItsLastStepAndALaterTEndContinuesIt) {
   TempDir work;
   const fs::path whole = work / "whole";

@@ -92,8 +92,14 @@ fs::path follow_final_link(const fs::path& target) {
       throw link_loop_error(target);
     }
     const fs::path link = fs::read_symlink(path);
-    path = without_trailing_separator(
-        (link.is_absolute() ? link : path.parent_path() / link).lexically_normal());
+    // From the link's real directory, resolved as the kernel does: "runs/latest"
+    // -> "../mine", with runs a link to data/runs, is data/mine, not mine
+    // (a lexical "runs/../mine" replaced the user's ./mine).
+    const fs::path next = without_trailing_separator(
+        link.is_absolute() ? link : fs::weakly_canonical(fs::absolute(path).parent_path()) / link);
+    const fs::path name = next.filename();
+    path = name == "." || name == ".." ? fs::weakly_canonical(next)
+                                       : fs::weakly_canonical(next.parent_path()) / name;
   }
 }
 
@@ -313,6 +319,17 @@ void check_name_leaves_room(const fs::path& absolute, const fs::path& shown) {
                     "--out");
 }
 
+/// libnetcdf reads a backslash as a separator (a Windows path): nc_create of
+/// 'a\b/.../fields.nc.part' failed with "No such file or directory", exit 1.
+void refuse_backslash(const fs::path& path, const fs::path& shown) {
+  if (path.string().find('\\') == std::string::npos) return;
+  throw ConfigError(fmt::format("--out '{}': the path '{}' holds a backslash, which the NetCDF "
+                                "library reads as a directory separator: choose a path without "
+                                "one",
+                                shown.string(), path.string()),
+                    "--out");
+}
+
 /// Creates the missing parents of `absolute` (--out `shown`): ConfigError when
 /// one of them is a file, std::runtime_error naming the reason otherwise.
 void create_parent_directories(const fs::path& absolute, const fs::path& shown) {
@@ -450,6 +467,16 @@ void replace_directory(const fs::path& staging, const fs::path& target) {
 
 PathLock::PathLock(const fs::path& target, const fs::path& shown)
     : path_(sibling(target, ".", kLockSuffix)) {
+  // A file of the user's by the lock's name was truncated, then deleted.
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(path_, ec);
+  if (fs::exists(status) && !(fs::is_regular_file(status) && is_ehlsim_lock(path_))) {
+    throw ConfigError(fmt::format("--out '{}': '{}' beside it is not an ehlsim lock (ehlsim locks "
+                                  "the run directory with a file of that name): move it, or "
+                                  "choose another --out",
+                                  shown.string(), path_.string()),
+                      "--out");
+  }
   for (;;) {
     fd_ = open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) {
@@ -503,23 +530,21 @@ fs::path resolve_run_directory(const fs::path& target) {
                                   target.string(), ec.message()),
                       "--out");
   }
-  const fs::path absolute = without_trailing_separator(from_cwd.lexically_normal());
+  // Resolved as the kernel does: "link/../run" is beside the link's target, not
+  // "run" (the checks looked at one directory and the swap replaced another).
+  fs::path absolute = without_trailing_separator(from_cwd);
+  if (absolute.filename() == "." || absolute.filename() == "..")
+    absolute = without_trailing_separator(fs::weakly_canonical(absolute));
   if (absolute.filename().empty() || absolute.filename() == "..") {
     throw ConfigError(
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
-  // libnetcdf reads a backslash as a separator (a Windows path): nc_create of
-  // 'a\b/.../fields.nc.part' failed with "No such file or directory".
-  if (absolute.string().find('\\') != std::string::npos) {
-    throw ConfigError(fmt::format("--out '{}': the path '{}' holds a backslash, which the NetCDF "
-                                  "library reads as a directory separator: choose a path "
-                                  "without one",
-                                  target.string(), absolute.string()),
-                      "--out");
-  }
+  refuse_backslash(absolute, target);
   check_name_leaves_room(absolute, target);
   create_parent_directories(absolute, target);
-  return fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
+  const fs::path resolved = fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
+  refuse_backslash(resolved, target);  // one behind a link ("lnk/run", lnk -> 'x\y')
+  return resolved;
 }
 
 RunDirectory::RunDirectory(const fs::path& target)
@@ -561,7 +586,12 @@ RunDirectory::~RunDirectory() {
 // checkpoints through a missing directory, and "link/../g5" beside the
 // link's target, away from DIR and its lock.
 fs::path RunDirectory::checkpoint() const {
-  return sibling(directory_.lexically_normal(), "", kCheckpointSuffix);
+  // Beside the directory the run replaces.  As given where no "." or ".."
+  // can lead elsewhere ("nosuch/../g4" failed, "link/../g5" wrote beside the
+  // link's target, "run/." into run), so that messages keep the user's path.
+  const bool plain = std::none_of(directory_.begin(), directory_.end(),
+                                  [](const fs::path& part) { return part == "." || part == ".."; });
+  return sibling(plain ? directory_ : resolved_, "", kCheckpointSuffix);
 }
 
 void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
