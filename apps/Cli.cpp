@@ -43,9 +43,8 @@ void print_error(std::string_view message) {
     if (end < message.size()) line += ' ';
     start = end + 1;
   }
-  std::replace(line.begin(), line.end(), '\n', ' ');
-  std::replace(line.begin(), line.end(), '\r', ' ');
-  // Other control characters as escapes: an ESC of an argument reached the terminal.
+  // Control characters as escapes: an ESC of an argument reached the terminal,
+  // and a newline in a path read as a space named another file ('cfg .toml').
   std::fprintf(stderr, "ehlsim: error: %s\n", printable(line).c_str());
 }
 

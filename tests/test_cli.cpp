@@ -162,6 +162,9 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
   // An escape character of an argument reached the terminal raw.
   expect_bad_input(ehlsim("impact " + quote("--bo\x1bgus")),
                    "The following argument was not expected: --bo\\x1bgus");
+  // A newline read as a space named another file ('cfg .toml').
+  expect_bad_input(ehlsim("impact " + quote("cfg\n.toml")),
+                   "cannot read config file 'cfg\\x0a.toml': No such file or directory");
   expect_bad_input(ehlsim(""),
                    "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
 }
