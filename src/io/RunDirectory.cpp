@@ -136,7 +136,8 @@ bool is_ehlsim_lock(const fs::path& file) {
   std::ifstream in(file);
   std::string text;
   std::getline(in, text);
-  if (text.empty()) return fs::file_size(file) == 0;
+  std::error_code ec;
+  if (text.empty()) return fs::file_size(file, ec) == 0 && !ec;
   constexpr std::string_view kHolder = "pid ";  // lock_holder_text
   return text.starts_with(kHolder) && text.size() > kHolder.size() &&
          std::isdigit(static_cast<unsigned char>(text[kHolder.size()])) != 0;
@@ -540,10 +541,14 @@ fs::path resolve_run_directory(const fs::path& target) {
         fmt::format("--out '{}': not a directory ehlsim can replace", target.string()), "--out");
   }
   refuse_backslash(absolute, target);
-  check_name_leaves_room(absolute, target);
-  create_parent_directories(absolute, target);
-  const fs::path resolved = fs::weakly_canonical(absolute.parent_path()) / absolute.filename();
+  // The parent's missing tail is taken lexically: "nosuch/../run" makes no "nosuch".
+  fs::path parent = fs::weakly_canonical(absolute.parent_path(), ec);
+  if (ec == std::errc::too_many_symbolic_link_levels) throw link_loop_error(target);
+  if (ec) parent = absolute.parent_path().lexically_normal();
+  const fs::path resolved = parent / absolute.filename();
   refuse_backslash(resolved, target);  // one behind a link ("lnk/run", lnk -> 'x\y')
+  check_name_leaves_room(resolved, target);
+  create_parent_directories(resolved, target);
   return resolved;
 }
 
@@ -582,9 +587,6 @@ RunDirectory::~RunDirectory() {
   fs::remove_all(staging_, ec);
 }
 
-// Lexically normal, as the run directory resolves: "nosuch/../g4" wrote its
-// checkpoints through a missing directory, and "link/../g5" beside the
-// link's target, away from DIR and its lock.
 fs::path RunDirectory::checkpoint() const {
   // Beside the directory the run replaces.  As given where no "." or ".."
   // can lead elsewhere ("nosuch/../g4" failed, "link/../g5" wrote beside the
