@@ -426,6 +426,22 @@ void refuse_foreign_checkpoint(const std::filesystem::path& checkpoint, const st
   }
 }
 
+/// A run that writes checkpoints replaces one beside DIR that it does not
+/// continue, an interrupted run's: said before it starts, with how to resume that one.
+void warn_of_replaced_checkpoint(const ImpactOptions& options, const ImpactConfig& config,
+                                 const std::filesystem::path& checkpoint) {
+  std::error_code ec;
+  if (config.checkpoint_every <= 0 || !std::filesystem::exists(checkpoint, ec)) return;
+  if (!options.restart_file.empty() &&
+      std::filesystem::equivalent(options.restart_file, checkpoint, ec))
+    return;
+  cli::print_warnings({fmt::format(
+      "'{}', the checkpoint of an earlier run into '{}' that did not complete, will be replaced "
+      "by this run's first checkpoint (to continue that run instead: --restart {})",
+      cli::printable(checkpoint.string()), cli::printable(options.out_dir),
+      shell_word(checkpoint.string()))});
+}
+
 int run_impact(const ImpactOptions& options) {
   // A signal during the set-up also ends the run cleanly, after its first step (main's guard).
   // Bad input throws ConfigError: exit 2 with its one line (main).
@@ -441,6 +457,7 @@ int run_impact(const ImpactOptions& options) {
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);
   refuse_foreign_checkpoint(run_dir->checkpoint(), options.out_dir);
   if (!options.quiet) {
+    warn_of_replaced_checkpoint(options, config, run_dir->checkpoint());
     print_case(config, options.out_dir);
     if (checkpoint)
       print_out("  restart    from {} at step {}, T = {:.6g}\n", options.restart_file,

@@ -725,6 +725,20 @@ TEST(Lifecycle, ARunLeavesACheckpointBesideItsDirectoryThatItDidNotWrite) {
   ASSERT_EQ(ehlsim("rolling --quiet --set grid.points=33 --out " + quote(run.string())).exit_code,
             0);
   EXPECT_TRUE(fs::exists(beside));
+  // A run that writes checkpoints replaces it, and says so before it starts.
+  const Result replacing = ehlsim(
+      "impact --set grid.points=33 --set body.elastic=false --set time.T_end=0.2 --set "
+      "output.checkpoint_every=2 --out " +
+      quote(run.string()));
+  ASSERT_EQ(replacing.exit_code, 0) << replacing.err;
+  EXPECT_NE(replacing.err.find("ehlsim: warning: '" + beside.string() +
+                               "', the checkpoint of an earlier run into '" + run.string() +
+                               "' that did not complete, will be replaced by this run's first "
+                               "checkpoint (to continue that run instead: --restart " +
+                               beside.string() + ")"),
+            std::string::npos)
+      << replacing.err;
+  fs::copy_file(work / "earlier" / "checkpoint.nc", beside, fs::copy_options::overwrite_existing);
   // Something else by that name is refused before the run: its checkpoint goes there.
   fs::remove(beside);
   write_file(beside, "my notes\n");
