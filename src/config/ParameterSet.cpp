@@ -44,7 +44,7 @@ constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
 /// parses and frees them recursively: a key of 50 000 parts (100 kB), or 150
 /// inline tables each under a key of 250 parts, overflowed the stack
 /// (SIGSEGV).  ehlsim's keys have one dot (section.key).
-constexpr int kMaxKeyDots = 256;
+constexpr int kMaxNestingLevels = 256;
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -547,7 +547,7 @@ class NestingDepth {
 };
 
 /// Throws ConfigError, naming the line, for a file whose keys, tables and
-/// values nest more than kMaxKeyDots levels (dots of keys outside quotes,
+/// values nest more than kMaxNestingLevels levels (dots of keys outside quotes,
 /// brackets and braces): toml++ recurses on each.
 void refuse_deep_keys(std::string_view text, const std::filesystem::path& path) {
   NestingDepth depth;
@@ -570,11 +570,11 @@ void refuse_deep_keys(std::string_view text, const std::filesystem::path& path) 
       depth.separate();
       if (c == '\n') ++line;
     }
-    if (depth.key() > kMaxKeyDots) {
+    if (depth.key() > kMaxNestingLevels) {
       throw ConfigError(fmt::format(
           "{}:{}: keys, tables and values nested more than {} levels deep (ehlsim's keys are "
           "section.key)",
-          path.string(), line, kMaxKeyDots));
+          path.string(), line, kMaxNestingLevels));
     }
   }
 }
