@@ -94,10 +94,9 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
     return fmt::format("{} is given {} times: give it once", what.substr(0, at),
                        what.substr(at + kOnce.size()));
   } else if (what == "A subcommand is required") {
-    const std::string commands = "commands: impact, spike, study, rolling; try ehlsim --help";
     return argc > 1 ? fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
-                                  ehlsim::echo_input(argv[1]), commands)
-                    : fmt::format("no command given ({})", commands);
+                                  ehlsim::echo_input(argv[1]), kCommandList)
+                    : fmt::format("no command given ({})", kCommandList);
   }
   return what;
 }

@@ -69,6 +69,10 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 /// ("--out: must name a directory, not be empty").
 [[nodiscard]] CLI::Validator not_empty(const std::string& what);
 
+/// The commands, for the messages of a command line that names none.
+inline constexpr std::string_view kCommandList =
+    "commands: impact, spike, study, rolling; try ehlsim --help";
+
 /// `text` with its control characters as escapes ("\x0a"): a path with a
 /// newline in it kept a one-line message from being one line.
 [[nodiscard]] std::string printable(std::string_view text);

@@ -177,23 +177,17 @@ std::string shell_word(const std::string& arg) {
   });
   if (safe) return arg;
   // A newline or another control character (--out $'nl\nrun') would break the
-  // one line: bash's $'...' quoting writes it as an escape.
+  // one line: bash's $'...' quoting writes it as an escape (cli::printable's).
   const bool control = std::any_of(arg.begin(), arg.end(), [](char c) {
     return std::iscntrl(static_cast<unsigned char>(c)) != 0;
   });
   if (control) {
-    std::string out = "$'";
+    std::string quoted;
     for (const char c : arg) {
-      if (c == '\'' || c == '\\') {
-        out += '\\';
-        out += c;
-      } else if (std::iscntrl(static_cast<unsigned char>(c)) != 0) {
-        out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
-      } else {
-        out += c;
-      }
+      if (c == '\'' || c == '\\') quoted += '\\';
+      quoted += c;
     }
-    return out + "'";
+    return "$'" + cli::printable(quoted) + "'";
   }
   std::string out = "'";
   for (const char c : arg) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
@@ -245,6 +239,13 @@ class LastStep final : public ImpactObserver {
   double T_ = 0.0;
 };
 
+/// Whether the run continues from `checkpoint` itself (--restart of that file).
+bool resumes_from(const ImpactOptions& options, const std::filesystem::path& checkpoint) {
+  std::error_code ec;  // a file that is not there is not the restart file
+  return !options.restart_file.empty() &&
+         std::filesystem::equivalent(options.restart_file, checkpoint, ec);
+}
+
 /// Runs the case into the staging directory of `run_dir` and publishes it.
 /// Throws RunInterrupted after a signal, with the checkpoint written.
 RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
@@ -279,11 +280,8 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  std::error_code ec;  // a restart file that is gone is not DIR.checkpoint.nc
-  const bool resumed_beside =
-      !options.restart_file.empty() &&
-      std::filesystem::equivalent(options.restart_file, run_dir.checkpoint(), ec);
-  run_dir.publish(config.checkpoint_every > 0 && kept.written, resumed_beside);
+  run_dir.publish(config.checkpoint_every > 0 && kept.written,
+                  resumes_from(options, run_dir.checkpoint()));
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
     cli::print_warnings(summary.warnings);
@@ -432,9 +430,7 @@ void warn_of_replaced_checkpoint(const ImpactOptions& options, const ImpactConfi
                                  const std::filesystem::path& checkpoint) {
   std::error_code ec;
   if (config.checkpoint_every <= 0 || !std::filesystem::exists(checkpoint, ec)) return;
-  if (!options.restart_file.empty() &&
-      std::filesystem::equivalent(options.restart_file, checkpoint, ec))
-    return;
+  if (resumes_from(options, checkpoint)) return;
   cli::print_warnings({fmt::format(
       "'{}', the checkpoint of an earlier run into '{}' that did not complete, will be replaced "
       "by this run's first checkpoint (to continue that run instead: --restart {})",
@@ -559,10 +555,7 @@ int run(int argc, char** argv) {
   // CLI11 says only "A subcommand is required" for a misspelt one.
   const auto is_command = [&](const CLI::App* command) { return command->check_name(argv[1]); };
   if (argc > 1 && argv[1][0] != '-' && std::as_const(app).get_subcommands(is_command).empty()) {
-    print_error(
-        fmt::format("unknown command '{}' (commands: impact, spike, study, rolling; try "
-                    "ehlsim --help)",
-                    echo_input(argv[1])));
+    print_error(fmt::format("unknown command '{}' ({})", echo_input(argv[1]), cli::kCommandList));
     return kExitBadInput;
   }
   try {

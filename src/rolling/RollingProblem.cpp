@@ -646,6 +646,16 @@ std::string relaxation_hint(const RollingConfig& c, bool other_update_tried,
       "other does not), may converge it",
       update_text(!each_colour), reynolds::deformation_updates_text(!each_colour));
 }
+
+/// What to try after an elastic failure that the film's resolution does not
+/// explain: for an L beyond the converged range, that; else, when the run
+/// ran out of cycles and its domain is not the reason, the relaxation's hint.
+std::string elastic_hint(const RollingConfig& c, bool domain_explains, bool out_of_cycles,
+                         bool other_update_tried, const std::vector<RollingCycle>& history) {
+  if (std::string beyond = beyond_converged_L_hint(c); !beyond.empty()) return beyond;
+  if (domain_explains || !out_of_cycles) return {};
+  return relaxation_hint(c, other_update_tried, history);
+}
 }  // namespace
 
 RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMonitor& on_fallback) {
@@ -666,10 +676,8 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
         why = rigid_hint(c, impl_->grid.h());
       } else if (!unresolved.empty()) {
         why = unresolved;
-      } else if (std::string beyond = beyond_converged_L_hint(c); !beyond.empty()) {
-        why = beyond;
-      } else if (domain.empty() && out_of_cycles) {
-        why = relaxation_hint(c, false, impl_->history);
+      } else {
+        why = elastic_hint(c, !domain.empty(), out_of_cycles, false, impl_->history);
       }
       throw RollingFailure(e.what() + domain + why);
     }
@@ -698,12 +706,10 @@ RollingResult RollingProblem::solve_with_other_update(const std::string& why,
   } catch (const RollingFailure& e) {
     const std::string domain = impl_->domain_hint();
     const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
-    std::string next = beyond_converged_L_hint(other);
-    if (next.empty() && domain.empty() && out_of_cycles)
-      next = relaxation_hint(other, true, impl_->history);
-    throw RollingFailure(fmt::format(
-        "{}{}, with the deformation updated {}; with it updated {} before that: {}{}", e.what(),
-        domain, update_text(each_colour), update_text(!each_colour), why, next));
+    throw RollingFailure(
+        fmt::format("{}{}, with the deformation updated {}; with it updated {} before that: {}{}",
+                    e.what(), domain, update_text(each_colour), update_text(!each_colour), why,
+                    elastic_hint(other, !domain.empty(), out_of_cycles, true, impl_->history)));
   }
   for (RollingCycle& c : result.history) c.work += work;
   history.insert(history.end(), result.history.begin(), result.history.end());
