@@ -54,15 +54,12 @@ void print_warnings(const std::vector<std::string>& warnings) {
     std::fprintf(stderr, "ehlsim: warning: %s\n", warning.c_str());
 }
 
-CLI::Validator not_empty(const std::string& what) {
-  return CLI::Validator(
-      [what](const std::string& value) {
-        return value.empty() ? "must name " + what + ", not be empty" : std::string();
-      },
-      "", "NOT_EMPTY");
-}
-
 namespace {
+/// A validator's message starts with this and the value: CLI11 puts "--out: "
+/// before it, and parse_error_text makes that "--out = VALUE: ...", as the
+/// other errors name a key and its value.
+constexpr std::string_view kValueMark = "= ";
+
 /// The option `name` ("--grid") of `app` or of one of its commands, or nullptr.
 const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
   if (const CLI::Option* option = app.get_option_no_throw(name)) return option;
@@ -74,18 +71,57 @@ const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
 /// What an option of CLI11's type name `type` takes, for messages.
 std::string value_text(const std::string& type) {
   if (type == "INT")
-    return fmt::format("an integer of at most {}", std::numeric_limits<int>::max());
+    return fmt::format("a whole number of at most {} in decimal digits",
+                       std::numeric_limits<int>::max());
   if (type == "UINT") return "a whole number";
   if (type == "FLOAT") return "a number";
   return "a value of type " + type;
 }
 }  // namespace
 
+CLI::Validator path_name(const std::string& what) {
+  return CLI::Validator(
+      [what](const std::string& value) {
+        if (value.empty()) return "must name " + what + ", not be empty";
+        // `impact --out --set case.M=5` took "--set" as the directory.
+        if (value.size() > 1 && value.front() == '-')
+          return fmt::format(
+              "{0}{1}: looks like an option, not {2}: write ./{1} for a name "
+              "that starts with '-'",
+              kValueMark, printable(value), what);
+        return std::string();
+      },
+      "", "PATH_NAME");
+}
+
+CLI::Validator decimal_integer() {
+  return CLI::Validator(
+      [](const std::string& value) {
+        // CLI11 also reads 0x21, 0o41 and 0b100001 as integers.
+        const std::size_t sign = value.starts_with('+') ? 1 : 0;
+        const bool digits =
+            value.size() > sign && value.find_first_not_of("0123456789", sign) == std::string::npos;
+        if (digits) return std::string();
+        return fmt::format("{}{}: must be {} (see --help)", kValueMark, printable(value),
+                           value_text("INT"));
+      },
+      "", "DECIMAL");
+}
+
+void add_quiet_flag(CLI::App& command, bool& quiet) {
+  // --quiet=5 and --quiet=no were read as --quiet.
+  command.add_flag("-q,--quiet", quiet, "print nothing but errors")->disable_flag_override();
+}
+
 std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, int argc,
                              char** argv) {
-  const std::string what = error.what();
+  std::string what = error.what();
+  if (const std::size_t mark = what.find(fmt::format(": {}", kValueMark));
+      what.starts_with('-') && mark != std::string::npos)
+    what.erase(mark, 1);  // a validator's "--grid: = 0x21: ..."
   constexpr std::string_view kNotConverted = "Could not convert: ";
   constexpr std::string_view kOnce = ": At Most 1 required but received ";
+  constexpr std::string_view kFlagValue = " was given a disallowed flag override";
   if (what.starts_with(kNotConverted)) {
     const std::string given = what.substr(kNotConverted.size());  // "--grid = abc"
     if (const CLI::Option* option = find_option(app, given.substr(0, given.find(" = "))))
@@ -93,6 +129,9 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
   } else if (const std::size_t at = what.find(kOnce); at != std::string::npos) {
     return fmt::format("{} is given {} times: give it once", what.substr(0, at),
                        what.substr(at + kOnce.size()));
+  } else if (what.ends_with(kFlagValue)) {  // "quiet was given ..." for --quiet=5
+    return fmt::format("--{} takes no value (see --help)",
+                       what.substr(0, what.size() - kFlagValue.size()));
   } else if (what == "A subcommand is required") {
     return argc > 1 ? fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
                                   ehlsim::echo_input(argv[1]), kCommandList)
@@ -127,7 +166,7 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
   command
       .add_option("-o,--out", options.out_dir,
                   "run directory for " + what_out + " (created if missing)")
-      ->check(not_empty("a directory"))
+      ->check(path_name("a directory"))
       ->capture_default_str();
   command
       .add_option("--set", options.overrides,

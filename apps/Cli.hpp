@@ -65,9 +65,16 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 [[nodiscard]] nlohmann::json invocation_json(const CaseOptions& options,
                                              const nlohmann::json& memory);
 
-/// Refuses an empty argument of an option that names a file or directory
-/// ("--out: must name a directory, not be empty").
-[[nodiscard]] CLI::Validator not_empty(const std::string& what);
+/// Refuses an argument of an option that names a file or directory when it is
+/// empty ("--out: must name a directory, not be empty") or starts with '-',
+/// as an option that stood in its place does.
+[[nodiscard]] CLI::Validator path_name(const std::string& what);
+
+/// Refuses an integer option's value unless it is written in decimal digits.
+[[nodiscard]] CLI::Validator decimal_integer();
+
+/// -q/--quiet, a flag that takes no value.
+void add_quiet_flag(CLI::App& command, bool& quiet);
 
 /// The commands, for the messages of a command line that names none.
 inline constexpr std::string_view kCommandList =
@@ -80,7 +87,8 @@ inline constexpr std::string_view kCommandList =
 /// The one line for a command-line error of CLI11 that says what is allowed:
 /// "Could not convert: --grid = abc" names the type the option takes, "At
 /// Most 1 required but received 2" that the option is given once, and "A
-/// subcommand is required" the option that stood in its place (`argv`).
+/// subcommand is required" the option that stood in its place (`argv`), and
+/// "quiet was given a disallowed flag override" that --quiet takes no value.
 [[nodiscard]] std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app,
                                            int argc, char** argv);
 

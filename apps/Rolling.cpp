@@ -27,7 +27,7 @@ CLI::App* add_rolling_command(CLI::App& app, RollingOptions& options) {
       "rolling", "Solve one steady rolling (or rolling and sliding) EHL point contact.");
   cli::add_case_options(*cmd, options, "a ball, M = 100, L = 10",
                         "fields.nc, the profiles and run.json");
-  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  cli::add_quiet_flag(*cmd, options.quiet);
   cmd->footer("\n" + describe_parameters(rolling_parameters()));
   return cmd;
 }

@@ -84,9 +84,9 @@ CLI::App* add_impact_command(CLI::App& app, ImpactOptions& options) {
   cmd->add_option("--restart", options.restart_file,
                   "continue from a checkpoint.nc of the same case (see output.checkpoint_every); "
                   "solver.*, output.*, spike.*, time.T_end and time.max_steps may differ")
-      ->check(cli::not_empty("a checkpoint file"))
+      ->check(cli::path_name("a checkpoint file"))
       ->type_name("CHECKPOINT");
-  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  cli::add_quiet_flag(*cmd, options.quiet);
   cmd->footer("\n" + describe_parameters());
   return cmd;
 }
@@ -500,13 +500,13 @@ CLI::App* add_spike_command(CLI::App& app, SpikeOptions& options) {
   cmd->add_option("-o,--out", options.out_dir,
                   "where to write spike_snapshots.csv, spike_profiles.csv and axis_profiles.csv "
                   "(default: the run directory)")
-      ->check(cli::not_empty("a directory"));
+      ->check(cli::path_name("a directory"));
   cmd->add_option("--set", options.overrides,
                   "override a spike.* setting of the run, e.g. --set spike.filter=gaussian")
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false)
       ->take_all();
-  cmd->add_flag("-q,--quiet", options.quiet, "print nothing but errors");
+  cli::add_quiet_flag(*cmd, options.quiet);
   return cmd;
 }
 

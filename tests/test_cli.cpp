@@ -148,13 +148,42 @@ TEST(Cli, UnknownCommandIsNamed) {
                    "ehlsim --help)");
 }
 
+TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
+  // `--out --set case.M=5` took "--set" as the directory and then read
+  // "case.M=5" as the config file.
+  expect_bad_input(ehlsim("impact --out --set case.M=5"),
+                   "--out = --set: looks like an option, not a directory: write ./--set for a "
+                   "name that starts with '-'");
+  expect_bad_input(ehlsim("impact --restart -x"),
+                   "--restart = -x: looks like an option, not a checkpoint file: write ./-x for a "
+                   "name that starts with '-'");
+  expect_bad_input(ehlsim("study --python -q --no-plots"),
+                   "--python = -q: looks like an option, not a program: write ./-q for a name "
+                   "that starts with '-'");
+  // Flags take no value: --quiet=5 ran as --quiet.
+  expect_bad_input(ehlsim("impact --quiet=5 --out x"), "--quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("rolling --quiet=no --out x"), "--quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("study --no-plots=1 --out x"), "--no-plots takes no value (see --help)");
+  // CLI11 read 0x21 as 33 and 0b1 as 1.
+  const std::string kWholeNumber =
+      "must be a whole number of at most 2147483647 in decimal digits (see --help)";
+  expect_bad_input(ehlsim("study --grid 0x21 --out x"), "--grid = 0x21: " + kWholeNumber);
+  expect_bad_input(ehlsim("study --jobs 0b1 --out x"), "--jobs = 0b1: " + kWholeNumber);
+  expect_bad_input(ehlsim("study --rolling-grid=-5 --out x"),
+                   "--rolling-grid = -5: " + kWholeNumber);
+}
+
 TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
   // CLI11's own texts: "Could not convert: --grid = abc", "--out: At Most 1
   // required but received 2", "A subcommand is required".
-  expect_bad_input(ehlsim("study --grid abc --out x"),
-                   "--grid = abc: must be an integer of at most 2147483647 (see --help)");
-  expect_bad_input(ehlsim("study --jobs 2.5 --out x"),
-                   "--jobs = 2.5: must be an integer of at most 2147483647 (see --help)");
+  expect_bad_input(
+      ehlsim("study --grid abc --out x"),
+      "--grid = abc: must be a whole number of at most 2147483647 in decimal digits (see "
+      "--help)");
+  expect_bad_input(
+      ehlsim("study --jobs 2.5 --out x"),
+      "--jobs = 2.5: must be a whole number of at most 2147483647 in decimal digits (see "
+      "--help)");
   expect_bad_input(ehlsim("rolling --out a --out b"), "--out is given 2 times: give it once");
   expect_bad_input(ehlsim("--bogus"),
                    "'--bogus' is neither a command nor an option of ehlsim (commands: impact, "
