@@ -591,6 +591,24 @@ TEST(Rolling, AFilmNoGridResolvesSaysSo) {
   EXPECT_EQ(message.find("inf"), std::string::npos) << message;
 }
 
+TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
+  // A rigid contact at D = 1e-150 diverged with no hint: the gap
+  // Hc + (X^2 + D Y^2) / 2 puts the formula's pressure zone sqrt(2 Hc / D)
+  // across, far beyond any domain.
+  for (const auto& [D, ending] :
+       {std::pair{"1e-150", "Y from -3 to 3): no domain holds it"},
+        std::pair{"1e-20",
+                  "sqrt(2 Hc / D) = 3.21e+18 wide (Y), beyond the domain (X from -4.5 to "
+                  "1.5, Y from -3 to 3)"}}) {
+    const RollingConfig config = load_rolling_config(
+        std::nullopt,
+        {"body.elastic=false", "case.L=0", std::string("case.D=") + D, "grid.points=33"});
+    const std::string message = failure_message(config);
+    EXPECT_NE(message.find("; the rigid formula's film Hc = "), std::string::npos) << message;
+    EXPECT_TRUE(message.ends_with(ending)) << message;
+  }
+}
+
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
   // One cycle cannot converge anything.  Without the fallback the message
   // names the cycles and the other deformation update.

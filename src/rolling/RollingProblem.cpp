@@ -559,14 +559,35 @@ std::string resolution_hint(const RollingConfig& c, double mesh) {
       c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes, points, zone.hint_meshes);
 }
 
-/// Why a rigid run failed, for its message: its film unresolved, or a
+/// Why a rigid run failed when the formula's pressure zone reaches beyond the
+/// domain, else "".  The gap is Hc + (X^2 + D Y^2) / 2, so the zone is about
+/// sqrt(2 Hc) long (X) and sqrt(2 Hc / D) wide (Y): at case.D = 1e-150 the
+/// formula's Hc is 1e152 and the iteration diverged with no word of why.
+/// `domain_said`: the message says already to extend the domain.
+std::string rigid_zone_hint(const RollingConfig& c, bool domain_said) {
+  const double hc = formula_central_film(c);
+  const double length = std::sqrt(2.0 * hc), width = std::sqrt(2.0 * hc / c.D);
+  if (!(length > -c.x_min || width > std::min(-c.y_min, c.y_max))) return {};
+  return fmt::format(
+      "; the rigid formula's film Hc = {:.3g} at D = {:.3g} makes the pressure zone about "
+      "sqrt(2 Hc) = {:.3g} long (X) and sqrt(2 Hc / D) = {:.3g} wide (Y), beyond the domain (X "
+      "from {:g} to {:g}, Y from {:g} to {:g}){}",
+      hc, c.D, length, width, c.x_min, c.x_max, c.y_min, c.y_max,
+      !std::isfinite(width) ? ": no domain holds it"
+      : domain_said         ? ""
+                            : ": extend it (grid.x_min, grid.y_min, grid.y_max)");
+}
+
+/// Why a rigid run failed, for its message: its film unresolved or beyond the
+/// domain (rigid_zone_hint), or a
 /// pressure-dependent viscosity whose steady film does not exist above a
 /// bound on alpha_bar (docs/validation.md, "Rigid bodies"; the bounds quoted
 /// are 0.43 at M = 10 from 129^2 to 1025^2 and 0.082 at M = 20 on 1025^2,
 /// from the isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the
 /// integral of -ln(1 - P / P_max) and F the load).
-std::string rigid_hint(const RollingConfig& c, double mesh) {
+std::string rigid_hint(const RollingConfig& c, double mesh, bool domain_said) {
   if (std::string unresolved = resolution_hint(c, mesh); !unresolved.empty()) return unresolved;
+  if (std::string beyond = rigid_zone_hint(c, domain_said); !beyond.empty()) return beyond;
   if (c.L > 0.0)
     return fmt::format(
         "; rigid bodies with a pressure-dependent viscosity have a steady film only below a bound "
@@ -673,7 +694,7 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
           unresolved.empty())) {
       std::string why;
       if (!c.elastic) {
-        why = rigid_hint(c, impl_->grid.h());
+        why = rigid_hint(c, impl_->grid.h(), !domain.empty());
       } else if (!unresolved.empty()) {
         why = unresolved;
       } else {
