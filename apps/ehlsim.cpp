@@ -48,7 +48,6 @@
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
-#include "io/NetcdfStatus.hpp"
 #include "io/ObserverChain.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
@@ -394,36 +393,6 @@ int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, con
   return kExitFailure;
 }
 
-/// ConfigError when `checkpoint` (DIR.checkpoint.nc, where the run keeps its
-/// checkpoints, and the state a signal leaves) or its partial file is not
-/// ehlsim's: a symbolic link (a dangling one was replaced, then deleted), a
-/// directory, or a file that is no NetCDF-4 one (a partial file may be empty:
-/// a run killed as it began one).  The user's file there was overwritten.
-void refuse_foreign_checkpoint(const std::filesystem::path& checkpoint, const std::string& out) {
-  const std::filesystem::path partial = checkpoint.string() + PartialFile::kSuffix;
-  for (const std::filesystem::path& path : {checkpoint, partial}) {
-    std::error_code ec;
-    const std::filesystem::file_status status = std::filesystem::symlink_status(path, ec);
-    std::string why;
-    if (std::filesystem::is_symlink(status)) {
-      why = fmt::format("'{}' is a symbolic link", path.string());
-    } else if (std::filesystem::exists(status) &&
-               !(path == partial && std::filesystem::is_regular_file(status) &&
-                 std::filesystem::is_empty(path, ec))) {
-      try {
-        require_netcdf4_file(path, "replace");
-      } catch (const std::runtime_error& e) {
-        why = e.what();
-      }
-    }
-    if (!why.empty())
-      throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: "
-                                    "move it, or choose another --out",
-                                    out, why),
-                        "--out");
-  }
-}
-
 /// A run that writes checkpoints replaces one beside DIR that it does not
 /// continue, an interrupted run's: said before it starts, with how to resume that one.
 void warn_of_replaced_checkpoint(const ImpactOptions& options, const ImpactConfig& config,
@@ -451,7 +420,7 @@ int run_impact(const ImpactOptions& options) {
   }
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);
-  refuse_foreign_checkpoint(run_dir->checkpoint(), options.out_dir);
+  run_dir->refuse_foreign_checkpoint();
   if (!options.quiet) {
     warn_of_replaced_checkpoint(options, config, run_dir->checkpoint());
     print_case(config, options.out_dir);

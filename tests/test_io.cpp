@@ -1545,6 +1545,41 @@ TEST(RunDirectory, AnUnpublishedRunLeavesTheEarlierOneAndItsCheckpoint) {
   EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
 }
 
+TEST(RunDirectory, RefusesACheckpointBesideItThatIsNotEhlsims) {
+  TempDir dir;
+  const fs::path target = dir / "run";
+  const auto message = [&] {
+    try {
+      const RunDirectory run(target);
+      run.refuse_foreign_checkpoint();
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string start =
+      "--out '" + target.string() + "': a run keeps its checkpoint beside it, and ";
+  const fs::path checkpoint = dir / "run.checkpoint.nc", partial = dir / "run.checkpoint.nc.part";
+  EXPECT_EQ(message(), "accepted");
+  write_file(partial, "");  // a run killed as it began one
+  EXPECT_EQ(message(), "accepted");
+  int ncid = -1;  // an earlier run's (any NetCDF-4 file: the run reads it only to resume)
+  ASSERT_EQ(nc_create(checkpoint.c_str(), NC_CLOBBER | NC_NETCDF4, &ncid), NC_NOERR);
+  ASSERT_EQ(nc_close(ncid), NC_NOERR);
+  EXPECT_EQ(message(), "accepted");
+  write_file(partial, "the user's notes");
+  EXPECT_NE(
+      message().find(start + "cannot replace '" + partial.string() + "': not a NetCDF-4 file"),
+      std::string::npos)
+      << message();
+  fs::remove(partial);
+  fs::remove(checkpoint);
+  fs::create_symlink(dir / "nowhere", checkpoint);  // a dangling link was replaced, then deleted
+  EXPECT_EQ(message(), start + "'" + checkpoint.string() +
+                           "' is a symbolic link: move it, or choose another --out");
+  EXPECT_TRUE(fs::is_symlink(checkpoint));
+}
+
 TEST(RunDirectory, RemovesTheDebrisOfAKilledRun) {
   TempDir dir;
   fs::create_directories(dir / ".run.part-999999");

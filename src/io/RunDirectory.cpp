@@ -27,6 +27,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
+#include "io/NetcdfStatus.hpp"
 #include "io/RunAnalysis.hpp"
 
 namespace ehlsim {
@@ -594,6 +595,31 @@ fs::path RunDirectory::checkpoint() const {
   const bool plain = std::none_of(directory_.begin(), directory_.end(),
                                   [](const fs::path& part) { return part == "." || part == ".."; });
   return sibling(plain ? directory_ : resolved_, "", kCheckpointSuffix);
+}
+
+void RunDirectory::refuse_foreign_checkpoint() const {
+  const fs::path checkpoint = this->checkpoint();
+  const fs::path partial = checkpoint.string() + PartialFile::kSuffix;
+  for (const fs::path& path : {checkpoint, partial}) {
+    std::error_code ec;
+    const fs::file_status status = fs::symlink_status(path, ec);
+    std::string why;
+    if (fs::is_symlink(status)) {
+      why = fmt::format("'{}' is a symbolic link", path.string());
+    } else if (fs::exists(status) &&
+               !(path == partial && fs::is_regular_file(status) && fs::is_empty(path, ec))) {
+      try {
+        require_netcdf4_file(path, "replace");
+      } catch (const std::runtime_error& e) {
+        why = e.what();
+      }
+    }
+    if (!why.empty())
+      throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: "
+                                    "move it, or choose another --out",
+                                    target_.string(), why),
+                        "--out");
+  }
 }
 
 void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {

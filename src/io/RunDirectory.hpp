@@ -92,6 +92,12 @@ class RunDirectory {
   /// DIR.checkpoint.nc: where the run in progress writes its checkpoints
   /// (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
+  /// For a run that writes checkpoints: ConfigError when checkpoint() or its
+  /// partial file is not ehlsim's: a symbolic link (a dangling one was
+  /// replaced, then deleted), a directory, or a file that is no NetCDF-4 one
+  /// (a partial file may be empty: a run killed as it began one).  The user's
+  /// file there was overwritten.
+  void refuse_foreign_checkpoint() const;
 
   /// Makes the staged run DIR, with `checkpoint()` moved to DIR/checkpoint.nc
   /// when `with_checkpoint`; `checkpoint()` is removed then, or when the run
