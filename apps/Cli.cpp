@@ -83,8 +83,9 @@ CLI::Validator path_name(const std::string& what) {
   return CLI::Validator(
       [what](const std::string& value) {
         if (value.empty()) return "must name " + what + ", not be empty";
-        // `impact --out --set case.M=5` took "--set" as the directory.
-        if (value.size() > 1 && value.front() == '-')
+        // `impact --out --set case.M=5` took "--set" as the directory ("-"
+        // reads as standard input or output).
+        if (value.front() == '-')
           return fmt::format(
               "{0}{1}: looks like an option, not {2}: write ./{1} for a name "
               "that starts with '-'",

@@ -160,6 +160,9 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("study --python -q --no-plots"),
                    "--python = -q: looks like an option, not a program: write ./-q for a name "
                    "that starts with '-'");
+  expect_bad_input(ehlsim("rolling --out -"),
+                   "--out = -: looks like an option, not a directory: write ./- for a name that "
+                   "starts with '-'");
   // Flags take no value: --quiet=5 ran as --quiet.
   expect_bad_input(ehlsim("impact --quiet=5 --out x"), "--quiet takes no value (see --help)");
   expect_bad_input(ehlsim("rolling --quiet=no --out x"), "--quiet takes no value (see --help)");

@@ -700,6 +700,33 @@ TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
       << raised.err;
 }
 
+TEST(Lifecycle, TheResumeCommandOfAConfigNamedLikeAnOptionWorks) {
+  // `ehlsim impact -- -c.toml`: the resume command must not give "-c.toml"
+  // where it is read as an option.
+  TempDir work;
+  write_file(work / "-c.toml", "[grid]\npoints = 33\n[body]\nelastic = false\n");
+  const std::string in_work = "cd " + quote(work.path().string()) + " && ";
+  const Result r = ehlsim(
+      "impact --quiet --set output.checkpoint_every=2 --set time.max_steps=3 --out run -- -c.toml",
+      in_work);
+  ASSERT_EQ(r.exit_code, 1) << r.err;
+  const std::string with = "resume from the checkpoint of step 2 with: ";
+  const std::size_t at = r.err.find(with);
+  ASSERT_NE(at, std::string::npos) << r.err;
+  const std::string command = r.err.substr(at + with.size(), r.err.find('\n') - at - with.size());
+  EXPECT_EQ(command, std::string(EHLSIM_BINARY) +
+                         " impact ./-c.toml --set output.checkpoint_every=2 --set "
+                         "time.max_steps=3 --out run --restart run.checkpoint.nc --quiet");
+  // As printed, with the cap raised: it goes on from step 2 to the new cap.
+  const int status =
+      std::system((in_work + command + " --set time.max_steps=5 2> resumed.err").c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  const std::string resumed = read_file(work / "resumed.err");
+  EXPECT_NE(resumed.find("no lift-off after 5 steps"), std::string::npos) << resumed;
+  EXPECT_NE(resumed.find("resume from the checkpoint of step 4 with: "), std::string::npos)
+      << resumed;
+}
+
 /// The rows of timeseries.csv (without the header).
 std::vector<std::string> rows(const fs::path& run) {
   std::vector<std::string> out;
