@@ -3,10 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "config/Parameters.hpp"
 
@@ -79,10 +81,18 @@ std::string value_text(const std::string& type) {
 }
 }  // namespace
 
+CLI::Validator not_empty(const std::string& what) {
+  return CLI::Validator(
+      [what](const std::string& value) {
+        return value.empty() ? "must name " + what + ", not be empty" : std::string();
+      },
+      "", "NOT_EMPTY");
+}
+
 CLI::Validator path_name(const std::string& what) {
   return CLI::Validator(
       [what](const std::string& value) {
-        if (value.empty()) return "must name " + what + ", not be empty";
+        if (std::string empty = not_empty(what)(value); !empty.empty()) return empty;
         // `impact --out --set case.M=5` took "--set" as the directory ("-"
         // reads as standard input or output).
         if (value.front() == '-')
@@ -97,21 +107,45 @@ CLI::Validator path_name(const std::string& what) {
 
 CLI::Validator decimal_integer() {
   return CLI::Validator(
-      [](const std::string& value) {
-        // CLI11 also reads 0x21, 0o41 and 0b100001 as integers.
+      [](std::string& value) {
+        // CLI11 also reads 0x21, 0o41 and 0b100001 as integers, and 011 as octal 9.
         const std::size_t sign = value.starts_with('+') ? 1 : 0;
         const bool digits =
             value.size() > sign && value.find_first_not_of("0123456789", sign) == std::string::npos;
-        if (digits) return std::string();
-        return fmt::format("{}{}: must be {} (see --help)", kValueMark, printable(value),
-                           value_text("INT"));
+        if (!digits)
+          return fmt::format("{}{}: must be {} (see --help)", kValueMark, printable(value),
+                             value_text("INT"));
+        const std::size_t first = std::min(value.find_first_not_of('0', sign), value.size() - 1);
+        value.erase(0, first);  // "+0033" is 33
+        return std::string();
       },
       "", "DECIMAL");
 }
 
 void add_quiet_flag(CLI::App& command, bool& quiet) {
-  // --quiet=5 and --quiet=no were read as --quiet.
-  command.add_flag("-q,--quiet", quiet, "print nothing but errors")->disable_flag_override();
+  command.add_flag("-q,--quiet", quiet, "print nothing but errors");
+}
+
+std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--") break;  // positional arguments from here on
+    const std::size_t equals = arg.find('=');
+    if (!arg.starts_with('-') || equals == std::string_view::npos) continue;
+    const std::string name(arg.substr(0, equals));
+    const CLI::Option* option = find_option(app, name);
+    if (option == nullptr) continue;
+    // --quiet=5 and --quiet=no were read as --quiet, --no-plots=0 as --no-plots.
+    if (option->get_expected_max() == 0) return name + " takes no value (see --help)";
+    // CLI11 reads -o=run as the directory "=run".
+    if (!name.starts_with("--")) {
+      const std::vector<std::string>& long_names = option->get_lnames();
+      return fmt::format("{}: a short option takes its value after a space: {} VALUE{}",
+                         printable(arg), name,
+                         long_names.empty() ? "" : " or --" + long_names.front() + "=VALUE");
+    }
+  }
+  return {};
 }
 
 std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, int argc,
@@ -122,7 +156,7 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
     what.erase(mark, 1);  // a validator's "--grid: = 0x21: ..."
   constexpr std::string_view kNotConverted = "Could not convert: ";
   constexpr std::string_view kOnce = ": At Most 1 required but received ";
-  constexpr std::string_view kFlagValue = " was given a disallowed flag override";
+  constexpr std::string_view kMissing = ": 1 required ";  // "--out: 1 required TEXT missing"
   if (what.starts_with(kNotConverted)) {
     const std::string given = what.substr(kNotConverted.size());  // "--grid = abc"
     if (const CLI::Option* option = find_option(app, given.substr(0, given.find(" = "))))
@@ -130,9 +164,9 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
   } else if (const std::size_t at = what.find(kOnce); at != std::string::npos) {
     return fmt::format("{} is given {} times: give it once", what.substr(0, at),
                        what.substr(at + kOnce.size()));
-  } else if (what.ends_with(kFlagValue)) {  // "quiet was given ..." for --quiet=5
-    return fmt::format("--{} takes no value (see --help)",
-                       what.substr(0, what.size() - kFlagValue.size()));
+  } else if (const std::size_t gap = what.find(kMissing);
+             what.starts_with('-') && gap != std::string::npos && what.ends_with(" missing")) {
+    return fmt::format("{} is given no value (see --help)", what.substr(0, gap));
   } else if (what == "A subcommand is required") {
     return argc > 1 ? fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
                                   ehlsim::echo_input(argv[1]), kCommandList)
@@ -141,13 +175,57 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
   return what;
 }
 
+namespace {
+/// The length of the well-formed UTF-8 sequence at the start of `text`, and
+/// its code point; {1, -1} for a byte that starts none.
+std::pair<std::size_t, long> utf8_sequence(std::string_view text) {
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
+  const unsigned char lead = byte(0);
+  const std::size_t length = lead >= 0xf0 ? 4 : lead >= 0xe0 ? 3 : lead >= 0xc2 ? 2 : 0;
+  if (length == 0 || lead > 0xf4 || text.size() < length) return {1, -1};
+  long code = lead & (0x7f >> length);
+  for (std::size_t i = 1; i < length; ++i) {
+    if ((byte(i) & 0xc0) != 0x80) return {1, -1};
+    code = (code << 6) | (byte(i) & 0x3f);
+  }
+  constexpr std::array<long, 4> kSmallest = {0, 0, 0x80, 0x800};
+  const bool overlong = length > 2 && code < kSmallest[length - 1];
+  if (overlong || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff)) return {1, -1};
+  return {length, code};
+}
+
+/// Code points a terminal acts on rather than shows: the C1 controls (U+009B
+/// is a CSI) and the bidirectional overrides and isolates, which reorder what
+/// follows them on the line.
+bool acts_on_terminal(long code) {
+  return (code >= 0x80 && code <= 0x9f) || (code >= 0x202a && code <= 0x202e) ||
+         (code >= 0x2066 && code <= 0x2069);
+}
+}  // namespace
+
 std::string printable(std::string_view text) {
   std::string out;
-  for (const char c : text) {
-    if (std::iscntrl(static_cast<unsigned char>(c)) != 0)
-      out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+  const auto escape = [&](std::string_view bytes) {
+    for (const char c : bytes) out += fmt::format("\\x{:02x}", static_cast<unsigned char>(c));
+  };
+  for (std::size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x80) {
+      if (std::iscntrl(c) != 0)
+        escape(text.substr(i, 1));
+      else
+        out += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    // Other UTF-8 text as it is (a path in any language); bytes that form no
+    // character, which a terminal in an 8-bit charset may take for C1, as escapes.
+    const auto [length, code] = utf8_sequence(text.substr(i));
+    if (code < 0 || acts_on_terminal(code))
+      escape(text.substr(i, length));
     else
-      out += c;
+      out += text.substr(i, length);
+    i += length;
   }
   return out;
 }
@@ -162,8 +240,11 @@ nlohmann::json invocation_json(const CaseOptions& options, const nlohmann::json&
 
 void add_case_options(CLI::App& command, CaseOptions& options, const std::string& default_case,
                       const std::string& what_out) {
-  command.add_option("config", options.config_file,
-                     "TOML file with the case (default: " + default_case + ")");
+  // An empty CONFIG ("-- ''") ran the built-in case.
+  command
+      .add_option("config", options.config_file,
+                  "TOML file with the case (default: " + default_case + ")")
+      ->check(not_empty("a config file"));
   command
       .add_option("-o,--out", options.out_dir,
                   "run directory for " + what_out + " (created if missing)")

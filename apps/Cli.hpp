@@ -65,30 +65,42 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 [[nodiscard]] nlohmann::json invocation_json(const CaseOptions& options,
                                              const nlohmann::json& memory);
 
+/// Refuses an empty argument that names a file or directory ("must name a
+/// config file, not be empty").
+[[nodiscard]] CLI::Validator not_empty(const std::string& what);
+
 /// Refuses an argument of an option that names a file or directory when it is
 /// empty ("--out: must name a directory, not be empty") or starts with '-',
 /// as an option that stood in its place does.
 [[nodiscard]] CLI::Validator path_name(const std::string& what);
 
-/// Refuses an integer option's value unless it is written in decimal digits.
+/// Refuses an integer option's value unless it is written in decimal digits,
+/// and passes it on without its leading zeros (CLI11 reads 011 as octal).
 [[nodiscard]] CLI::Validator decimal_integer();
 
-/// -q/--quiet, a flag that takes no value.
+/// -q/--quiet: print nothing but errors.
 void add_quiet_flag(CLI::App& command, bool& quiet);
+
+/// The error of an argument that CLI11 would misread, else "": a value given
+/// to a flag ("--quiet=5", which it read as --quiet: "--quiet takes no
+/// value"), or a short option with '=' ("-o=run", which it read as the
+/// directory "=run").  Arguments after "--" are positional.
+[[nodiscard]] std::string refused_option_form(const CLI::App& app, int argc, char** argv);
 
 /// The commands, for the messages of a command line that names none.
 inline constexpr std::string_view kCommandList =
     "commands: impact, spike, study, rolling; try ehlsim --help";
 
-/// `text` with its control characters as escapes ("\x0a"): a path with a
-/// newline in it kept a one-line message from being one line.
+/// `text` with what a terminal would act on as escapes ("\x0a"): the control
+/// characters (a path with a newline in it kept a one-line message from being
+/// one line), UTF-8's C1 controls and bidirectional overrides, and bytes that
+/// form no UTF-8 character.  Other UTF-8 text stays as it is.
 [[nodiscard]] std::string printable(std::string_view text);
 
 /// The one line for a command-line error of CLI11 that says what is allowed:
 /// "Could not convert: --grid = abc" names the type the option takes, "At
 /// Most 1 required but received 2" that the option is given once, and "A
-/// subcommand is required" the option that stood in its place (`argv`), and
-/// "quiet was given a disallowed flag override" that --quiet takes no value.
+/// subcommand is required" the option that stood in its place (`argv`).
 [[nodiscard]] std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app,
                                            int argc, char** argv);
 

@@ -640,11 +640,11 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
       "similarity: the rolling contact at M = 20, 100 beside the impact (figure similarity).");
   cmd->add_option("-g,--grid", options.grid,
                   "points per side of the impacts (2^k + 1; the paper used 1025)")
-      ->check(cli::decimal_integer())
+      ->transform(cli::decimal_integer())
       ->capture_default_str();
   cmd->add_option("--rolling-grid", options.rolling_grid,
                   "points per side of the rolling runs (2^k + 1; about 1 s each on 257)")
-      ->check(cli::decimal_integer())
+      ->transform(cli::decimal_integer())
       ->capture_default_str();
   cmd->add_option("-o,--out", options.out_dir, "study directory (created if missing)")
       ->check(cli::path_name("a directory"))
@@ -652,7 +652,7 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
   options.jobs = std::min(options.jobs, available_cores());
   cmd->add_option("-j,--jobs", options.jobs,
                   "cases run at the same time (one thread each), at most the number of cores")
-      ->check(cli::decimal_integer())
+      ->transform(cli::decimal_integer())
       ->capture_default_str();
   cmd->add_option(
          "--set", options.overrides,
@@ -660,7 +660,7 @@ CLI::App* add_study_command(CLI::App& app, StudyOptions& options) {
       ->type_name("KEY=VALUE")
       ->allow_extra_args(false)
       ->take_all();
-  cmd->add_flag("--no-plots", options.no_plots, "skip the figure script")->disable_flag_override();
+  cmd->add_flag("--no-plots", options.no_plots, "skip the figure script");
   cmd->add_option("--python", options.python, "Python 3 with numpy and matplotlib")
       ->check(cli::path_name("a program"))
       ->capture_default_str();

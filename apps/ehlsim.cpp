@@ -177,10 +177,7 @@ std::string shell_word(const std::string& arg) {
   if (safe) return arg;
   // A newline or another control character (--out $'nl\nrun') would break the
   // one line: bash's $'...' quoting writes it as an escape (cli::printable's).
-  const bool control = std::any_of(arg.begin(), arg.end(), [](char c) {
-    return std::iscntrl(static_cast<unsigned char>(c)) != 0;
-  });
-  if (control) {
+  if (cli::printable(arg) != arg) {
     std::string quoted;
     for (const char c : arg) {
       if (c == '\'' || c == '\\') quoted += '\\';
@@ -525,6 +522,10 @@ int run(int argc, char** argv) {
   const auto is_command = [&](const CLI::App* command) { return command->check_name(argv[1]); };
   if (argc > 1 && argv[1][0] != '-' && std::as_const(app).get_subcommands(is_command).empty()) {
     print_error(fmt::format("unknown command '{}' ({})", echo_input(argv[1]), cli::kCommandList));
+    return kExitBadInput;
+  }
+  if (const std::string refused = cli::refused_option_form(app, argc, argv); !refused.empty()) {
+    print_error(refused);
     return kExitBadInput;
   }
   try {

@@ -17,7 +17,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "io/Checkpoint.hpp"
@@ -167,6 +166,18 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("impact --quiet=5 --out x"), "--quiet takes no value (see --help)");
   expect_bad_input(ehlsim("rolling --quiet=no --out x"), "--quiet takes no value (see --help)");
   expect_bad_input(ehlsim("study --no-plots=1 --out x"), "--no-plots takes no value (see --help)");
+  // ... and --quiet=true, which CLI11's flag override check let through.
+  expect_bad_input(ehlsim("impact --quiet=true --out x"), "--quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("spike -q=1 x"), "-q takes no value (see --help)");
+  // A short option's '=' is part of its value for CLI11: -o=x made "=x".
+  expect_bad_input(ehlsim("impact -o=x"),
+                   "-o=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
+  // After "--" everything is positional: a config file named so.
+  expect_bad_input(ehlsim("impact --out x -- --quiet=1"),
+                   "cannot read config file '--quiet=1': No such file or directory");
+  // Empty values: the positional config ran the built-in case.
+  expect_bad_input(ehlsim("impact --out x -- ''"), "config: must name a config file, not be empty");
+  expect_bad_input(ehlsim("impact --out="), "--out is given no value (see --help)");
   // CLI11 read 0x21 as 33 and 0b1 as 1.
   const std::string kWholeNumber =
       "must be a whole number of at most 2147483647 in decimal digits (see --help)";
@@ -174,6 +185,10 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("study --jobs 0b1 --out x"), "--jobs = 0b1: " + kWholeNumber);
   expect_bad_input(ehlsim("study --rolling-grid=-5 --out x"),
                    "--rolling-grid = -5: " + kWholeNumber);
+  // ... and 011 as octal 9: leading zeros are dropped.
+  expect_bad_input(ehlsim("study --grid 011 --out x"),
+                   "--grid = 11: must be 2^k + 1 between 9 and 4097 (the points per side of every "
+                   "impact case)");
 }
 
 TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
@@ -199,6 +214,15 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
                    "cannot read config file 'cfg\\x0a.toml': No such file or directory");
   expect_bad_input(ehlsim(""),
                    "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
+  // A terminal acts on UTF-8's C1 controls (U+009B is a CSI), on the
+  // bidirectional overrides (U+202E reverses what follows) and, in an 8-bit
+  // charset, on bytes that form no UTF-8 character: escaped too.  Other
+  // UTF-8 text stays as it is.
+  expect_bad_input(
+      ehlsim("impact " + quote("cfg\xc2\x9b"
+                               "31m\xe2\x80\xae\x9b-\xc3\xa9.toml")),
+      "cannot read config file 'cfg\\xc2\\x9b31m\\xe2\\x80\\xae\\x9b-\xc3\xa9.toml': No "
+      "such file or directory");
 }
 
 TEST(Cli, RunawayValuesAreShortenedInErrors) {

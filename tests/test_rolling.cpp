@@ -59,6 +59,29 @@ TEST(FilmFormula, GivesTheValuesOfModelMd) {
   EXPECT_DOUBLE_EQ(moes_to_hertz_film(hertz_to_moes_film(0.3, 77.0), 77.0), 0.3);
 }
 
+TEST(FilmFormula, TheRigidFilmIsTheCubicMeanOfItsAsymptotesAtAnyD) {
+  // The cubes of the asymptotes overflowed at D = 1e-150 (Hc = inf) and
+  // underflowed at D = 1e150, L = 10 (Hc = 0).
+  for (const double D : {1e-290, 1e-150, 1e-3, 1.0, 1e3, 1e150, 1e290}) {
+    for (const double L : {0.0, 10.0}) {
+      const double iso = nvm_rigid_isoviscous_film(20, D);
+      const double piezo = nvm_rigid_piezoviscous_film(L, D);
+      const double film = nvm_rigid_central_film(20, L, D);
+      EXPECT_TRUE(std::isfinite(film)) << D << " " << L;
+      constexpr double kRounding = 1e-15;  // cbrt(x^3) may lie an ulp below x
+      EXPECT_GE(film, (1.0 - kRounding) * std::max(iso, piezo)) << D << " " << L;
+      EXPECT_LE(film, std::cbrt(2.0) * std::max(iso, piezo)) << D << " " << L;
+      if (L == 0.0) {
+        EXPECT_DOUBLE_EQ(film, iso) << D;
+      }
+    }
+  }
+  // Where the cubes are representable, the plain formula.
+  EXPECT_DOUBLE_EQ(nvm_rigid_central_film(20, 10, 1.0),
+                   std::cbrt(std::pow(nvm_rigid_isoviscous_film(20, 1.0), 3.0) +
+                             std::pow(nvm_rigid_piezoviscous_film(10, 1.0), 3.0)));
+}
+
 TEST(Rolling, ConvergesWithTheForceBalanced) {
   const RollingConfig c = rolling_case(100, 10, 65);
   const RollingResult r = solve(c);
@@ -594,19 +617,36 @@ TEST(Rolling, AFilmNoGridResolvesSaysSo) {
 TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
   // A rigid contact at D = 1e-150 diverged with no hint: the gap
   // Hc + (X^2 + D Y^2) / 2 puts the formula's pressure zone sqrt(2 Hc / D)
-  // across, far beyond any domain.
-  for (const auto& [D, ending] :
-       {std::pair{"1e-150", "Y from -3 to 3): no domain holds it"},
-        std::pair{"1e-20",
-                  "sqrt(2 Hc / D) = 3.21e+18 wide (Y), beyond the domain (X from -4.5 to "
-                  "1.5, Y from -3 to 3)"}}) {
-    const RollingConfig config = load_rolling_config(
-        std::nullopt,
-        {"body.elastic=false", "case.L=0", std::string("case.D=") + D, "grid.points=33"});
-    const std::string message = failure_message(config);
-    EXPECT_NE(message.find("; the rigid formula's film Hc = "), std::string::npos) << message;
-    EXPECT_TRUE(message.ends_with(ending)) << message;
-  }
+  // to either side, far beyond any domain.  The edges it passes are named.
+  const auto message = [](std::vector<std::string> settings) {
+    settings.insert(settings.end(), {"body.elastic=false", "case.L=0", "grid.points=33"});
+    return failure_message(load_rolling_config(std::nullopt, settings));
+  };
+  std::string m = message({"case.D=1e-150"});
+  EXPECT_TRUE(
+      m.ends_with("; the rigid formula's film Hc = 5.14e+146 at D = 1e-150 makes the "
+                  "pressure zone extend about sqrt(2 Hc) = 3.21e+73 upstream (X) and "
+                  "sqrt(2 Hc / D) = 3.21e+148 to either side (Y), beyond the inlet edge "
+                  "X = -4.5 and the side edges Y = -3, 3: extend the domain (grid.x_min, "
+                  "grid.y_min, grid.y_max)"))
+      << m;
+  // Where the message says already that the film depends on the domain
+  // (the load at its edges), it does not say again to extend it.
+  m = message({"case.D=1e-20"});
+  EXPECT_NE(m.find("the film depends on the domain; extend it"), std::string::npos) << m;
+  EXPECT_TRUE(m.ends_with("beyond the inlet edge X = -4.5 and the side edges Y = -3, 3")) << m;
+  // A zone both below the mesh and beyond a short inlet: more points, and a
+  // longer inlet, not "more points or a smaller domain".
+  m = message({"grid.x_min=-0.001", "grid.x_max=10", "grid.y_min=-5", "grid.y_max=5.001"});
+  EXPECT_NE(m.find("the grid cannot resolve this film: use more points (at least about"),
+            std::string::npos)
+      << m;
+  EXPECT_EQ(m.find("smaller domain"), std::string::npos) << m;
+  EXPECT_TRUE(m.ends_with("beyond the inlet edge X = -0.001: extend the domain (grid.x_min)")) << m;
+  // Only the film's resolution where the zone fits: the formula's zone of
+  // M = 100 is 0.017 wide on the default domain.
+  m = message({"case.D=1"});
+  EXPECT_TRUE(m.ends_with("or a smaller domain")) << m;
 }
 
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {

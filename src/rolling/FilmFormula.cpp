@@ -1,5 +1,6 @@
 #include "rolling/FilmFormula.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ehlsim {
@@ -34,8 +35,16 @@ double nvm_rigid_piezoviscous_film(double L, double D) {
 }
 
 double nvm_rigid_central_film(double M, double L, double D) {
-  return std::cbrt(std::pow(nvm_rigid_isoviscous_film(M, D), 3.0) +
-                   std::pow(nvm_rigid_piezoviscous_film(L, D), 3.0));
+  const double isoviscous = nvm_rigid_isoviscous_film(M, D);
+  const double piezoviscous = nvm_rigid_piezoviscous_film(L, D);
+  const double sum = std::pow(isoviscous, 3.0) + std::pow(piezoviscous, 3.0);
+  if (std::isnormal(sum)) return std::cbrt(sum);
+  // The cubes overflow from films of 6e102 on (case.D = 1e-150 gave inf) or
+  // underflow below 3e-103: scaled by the larger film they do not.
+  const double larger = std::max(isoviscous, piezoviscous);
+  if (!(larger > 0.0) || !std::isfinite(larger)) return larger;
+  return larger *
+         std::cbrt(std::pow(isoviscous / larger, 3.0) + std::pow(piezoviscous / larger, 3.0));
 }
 
 double moes_to_hertz_film(double h_moes, double M) { return h_moes / std::pow(1.5 * M, 2.0 / 3.0); }

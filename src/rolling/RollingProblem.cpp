@@ -1,6 +1,7 @@
 #include "rolling/RollingProblem.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -540,8 +541,10 @@ FilmZone film_zone(const RollingConfig& c) {
 }
 
 /// Why a run failed when its film is below the grid's resolution (fewer
-/// meshes across its FilmZone than min_meshes), else "".
-std::string resolution_hint(const RollingConfig& c, double mesh) {
+/// meshes across its FilmZone than min_meshes), else "".  `domain_said`: the
+/// message says already that the domain is too small, so a smaller one is not
+/// offered in place of more points.
+std::string resolution_hint(const RollingConfig& c, double mesh, bool domain_said) {
   const FilmZone zone = film_zone(c);
   const double meshes = zone.width / mesh;
   if (!(meshes < zone.min_meshes)) return {};
@@ -555,39 +558,48 @@ std::string resolution_hint(const RollingConfig& c, double mesh) {
   return fmt::format(
       "; the {}formula's film Hc = {:.3g} makes {} = {:.3g} wide, {:.2g} meshes: the grid cannot "
       "resolve this film: use more points (at least about {:.2g} per side, for {:g} meshes "
-      "there) or a smaller domain",
-      c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes, points, zone.hint_meshes);
+      "there){}",
+      c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes, points, zone.hint_meshes,
+      domain_said ? "" : " or a smaller domain");
 }
 
 /// Why a rigid run failed when the formula's pressure zone reaches beyond the
-/// domain, else "".  The gap is Hc + (X^2 + D Y^2) / 2, so the zone is about
-/// sqrt(2 Hc) long (X) and sqrt(2 Hc / D) wide (Y): at case.D = 1e-150 the
-/// formula's Hc is 1e152 and the iteration diverged with no word of why.
-/// `domain_said`: the message says already to extend the domain.
+/// domain, else "".  The gap is Hc + (X^2 + D Y^2) / 2, so the zone extends
+/// about sqrt(2 Hc) upstream (X) and sqrt(2 Hc / D) to either side (Y): at
+/// case.D = 1e-150 the formula's Hc is 5e146 (M = 100) and the iteration diverged with
+/// no word of why.  `domain_said`: the message says already to extend it.
 std::string rigid_zone_hint(const RollingConfig& c, bool domain_said) {
   const double hc = formula_central_film(c);
-  const double length = std::sqrt(2.0 * hc), width = std::sqrt(2.0 * hc / c.D);
-  if (!(length > -c.x_min || width > std::min(-c.y_min, c.y_max))) return {};
+  // sqrt(2 Hc) / sqrt(D): 2 Hc / D overflows at D = 1e-295.
+  const double upstream = std::sqrt(2.0 * hc), aside = upstream / std::sqrt(c.D);
+  std::vector<std::string> edges, keys;
+  if (upstream > -c.x_min) {
+    edges.push_back(fmt::format("the inlet edge X = {:g}", c.x_min));
+    keys.emplace_back("grid.x_min");
+  }
+  if (aside > std::min(-c.y_min, c.y_max)) {
+    edges.push_back(fmt::format("the side edges Y = {:g}, {:g}", c.y_min, c.y_max));
+    keys.insert(keys.end(), {"grid.y_min", "grid.y_max"});
+  }
+  if (edges.empty()) return {};
   return fmt::format(
-      "; the rigid formula's film Hc = {:.3g} at D = {:.3g} makes the pressure zone about "
-      "sqrt(2 Hc) = {:.3g} long (X) and sqrt(2 Hc / D) = {:.3g} wide (Y), beyond the domain (X "
-      "from {:g} to {:g}, Y from {:g} to {:g}){}",
-      hc, c.D, length, width, c.x_min, c.x_max, c.y_min, c.y_max,
-      !std::isfinite(width) ? ": no domain holds it"
-      : domain_said         ? ""
-                            : ": extend it (grid.x_min, grid.y_min, grid.y_max)");
+      "; the rigid formula's film Hc = {:.3g} at D = {:.3g} makes the pressure zone extend about "
+      "sqrt(2 Hc) = {:.3g} upstream (X) and sqrt(2 Hc / D) = {:.3g} to either side (Y), beyond "
+      "{}{}",
+      hc, c.D, upstream, aside, fmt::join(edges, " and "),
+      domain_said ? "" : fmt::format(": extend the domain ({})", fmt::join(keys, ", ")));
 }
 
 /// Why a rigid run failed, for its message: its film unresolved or beyond the
-/// domain (rigid_zone_hint), or a
-/// pressure-dependent viscosity whose steady film does not exist above a
-/// bound on alpha_bar (docs/validation.md, "Rigid bodies"; the bounds quoted
-/// are 0.43 at M = 10 from 129^2 to 1025^2 and 0.082 at M = 20 on 1025^2,
-/// from the isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the
-/// integral of -ln(1 - P / P_max) and F the load).
+/// domain (rigid_zone_hint), or a pressure-dependent viscosity whose steady
+/// film does not exist above a bound on alpha_bar (docs/validation.md, "Rigid bodies"; the bounds
+/// quoted are 0.43 at M = 10 from 129^2 to 1025^2 and 0.082 at M = 20 on 1025^2, from the
+/// isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the integral of -ln(1 - P /
+/// P_max) and F the load).
 std::string rigid_hint(const RollingConfig& c, double mesh, bool domain_said) {
-  if (std::string unresolved = resolution_hint(c, mesh); !unresolved.empty()) return unresolved;
-  if (std::string beyond = rigid_zone_hint(c, domain_said); !beyond.empty()) return beyond;
+  const std::string beyond = rigid_zone_hint(c, domain_said);
+  const std::string unresolved = resolution_hint(c, mesh, domain_said || !beyond.empty());
+  if (!unresolved.empty() || !beyond.empty()) return unresolved + beyond;
   if (c.L > 0.0)
     return fmt::format(
         "; rigid bodies with a pressure-dependent viscosity have a steady film only below a bound "
@@ -688,7 +700,7 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
     const std::string domain = impl_->domain_hint();
     const bool out_of_cycles = dynamic_cast<const CyclesExhausted*>(&e) != nullptr;
     const std::string unresolved = c.elastic && !dynamic_cast<const NegativeFilm*>(&e)
-                                       ? resolution_hint(c, impl_->grid.h())
+                                       ? resolution_hint(c, impl_->grid.h(), !domain.empty())
                                        : std::string();
     if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty() &&
           unresolved.empty())) {
