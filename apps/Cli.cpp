@@ -30,6 +30,17 @@ std::string shortened_word(std::string_view word) {
 }
 }  // namespace
 
+void write_out(std::string_view text) {
+  std::string shown;
+  for (std::size_t start = 0; start < text.size();) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    shown += printable(text.substr(start, end - start));
+    if (end < text.size()) shown += '\n';
+    start = end + 1;
+  }
+  std::fwrite(shown.data(), 1, shown.size(), stdout);  // its error is the reader's
+}
+
 void print_error(std::string_view message) {
   // After what stdout holds so far, also when both go to one file (a study's
   // case log, whose last line the study reports as the reason).
@@ -126,6 +137,26 @@ void add_quiet_flag(CLI::App& command, bool& quiet) {
   command.add_flag("-q,--quiet", quiet, "print nothing but errors");
 }
 
+namespace {
+/// The option `name` of the command that argv[1] names (or of ehlsim itself:
+/// --help), nullptr where it has none: CLI11 then says what it does not expect.
+const CLI::Option* option_of_command(const CLI::App& app, const std::string& name, int argc,
+                                     char** argv) {
+  if (const CLI::Option* option = app.get_option_no_throw(name)) return option;
+  if (argc < 2) return nullptr;
+  const std::string_view first = argv[1];
+  for (const CLI::App* command :
+       app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; }))
+    return command->get_option_no_throw(name);
+  return nullptr;
+}
+
+/// The short option whose value a cluster "-qo" takes: its last letter's.
+std::string last_short_option(const std::string& name) {
+  return name.starts_with("--") || name.size() <= 2 ? name : "-" + name.substr(name.size() - 1);
+}
+}  // namespace
+
 std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];
@@ -133,17 +164,19 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
     const std::size_t equals = arg.find('=');
     if (!arg.starts_with('-') || equals == std::string_view::npos) continue;
     const std::string name(arg.substr(0, equals));
-    const CLI::Option* option = find_option(app, name);
+    const CLI::Option* option = option_of_command(app, last_short_option(name), argc, argv);
     if (option == nullptr) continue;
     // --quiet=5 and --quiet=no were read as --quiet, --no-plots=0 as --no-plots.
     if (option->get_expected_max() == 0) return name + " takes no value (see --help)";
-    // CLI11 reads -o=run as the directory "=run".
+    // CLI11 reads -o=run (and -qo=run) as the directory "=run".
     if (!name.starts_with("--")) {
       const std::vector<std::string>& long_names = option->get_lnames();
       return fmt::format("{}: a short option takes its value after a space: {} VALUE{}",
-                         printable(arg), name,
+                         printable(arg), last_short_option(name),
                          long_names.empty() ? "" : " or --" + long_names.front() + "=VALUE");
     }
+    // "--out= run" took "run" as the value.
+    if (equals + 1 == arg.size()) return name + " is given no value (see --help)";
   }
   return {};
 }

@@ -20,15 +20,19 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
-/// Text for stdout: what a command reports as it goes (the case, a study's
-/// progress, the summary).  A write that fails because the reader went away
+/// Writes `text` to stdout with each of its lines made printable (as
+/// print_error does: a run directory named with a C1 control reached the
+/// terminal raw).  A write that fails because the reader went away
 /// (`ehlsim study | head -3`) or stdout is closed is not a failure of the
 /// command: the rest of the report is lost, the run goes on, and the exit
 /// code tells what it left on disk (SIGPIPE is ignored: apps/ehlsim.cpp).
+void write_out(std::string_view text);
+
+/// Text for stdout: what a command reports as it goes (the case, a study's
+/// progress, the summary), through write_out.
 template <typename... Args>
 void print_out(fmt::format_string<Args...> format, Args&&... args) {
-  const std::string text = fmt::format(format, std::forward<Args>(args)...);
-  std::fwrite(text.data(), 1, text.size(), stdout);  // its error is the reader's
+  write_out(fmt::format(format, std::forward<Args>(args)...));
 }
 
 /// "ehlsim: error: <message>" as one line on stderr, after what stdout holds

@@ -83,10 +83,12 @@ def draw_impact(rng, grids, _max_m):
     return grid, sets + lubricant_sets(rng)
 
 
-# What a rolling contact's exit 1 suggests: more points, a larger domain, more cycles or
-# the other deformation update, or (rigid bodies) the bound on alpha_bar.
-ROLLING_HINTS = ("use more points", "extend it", "may converge it", "bound on alpha_bar",
-                 "more cycles will not converge it")
+# What a rolling contact's exit 1 suggests: more points, a larger or smaller domain, more
+# cycles or the other deformation update, or (rigid bodies) the bound on alpha_bar; or that
+# no grid resolves it.
+ROLLING_HINTS = ("use more points", "extend it", "extend the domain", "smaller domain",
+                 "may converge it", "bound on alpha_bar", "more cycles will not converge it",
+                 "no grid resolves", "no domain holds")
 
 
 def error_defect(code, err, mode):

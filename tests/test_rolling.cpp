@@ -566,14 +566,17 @@ TEST(Rolling, UnresolvedFilmFailsWithAHint) {
 TEST(Rolling, AFilmFarBelowTheMeshFailsWithAHint) {
   // M = 1e6, L = 1: the formula's film is 4.7e-5, its inlet and outlet zones
   // Hc^(2/3) = 1.3e-3 wide against a mesh of 0.19.  The force balance
-  // diverges; the message says why, and how many points the zones need.
+  // diverges; the message says why, and how many points the zones need:
+  // more than a grid may have.
   const std::string message = failure_message(rolling_case(1e6, 1, 33));
   EXPECT_EQ(message.rfind("the force balance diverged on the 33^2 grid", 0), 0u) << message;
-  EXPECT_NE(message.find(
-                "; the formula's film Hc = 4.71e-05 makes the inlet and outlet zones "
-                "about Hc^(2/3) = 0.0013 wide, 0.007 meshes: the grid cannot resolve "
-                "this film: use more points (at least about 9.2e+03 per side, for 2 meshes there)"),
-            std::string::npos)
+  EXPECT_NE(
+      message.find("; the formula's film Hc = 4.71e-05 makes the inlet and outlet zones "
+                   "about Hc^(2/3) = 0.0013 wide, 0.007 meshes: the grid cannot resolve "
+                   "this film: it needs about 9.2e+03 points per side for 2 meshes there, more "
+                   "than the 4097 allowed: only a smaller domain that still holds the contact may "
+                   "resolve it"),
+      std::string::npos)
       << message;
   // A second deformation update cannot resolve it either: not tried.
   EXPECT_EQ(message.find("with the deformation updated"), std::string::npos) << message;
@@ -617,7 +620,8 @@ TEST(Rolling, AFilmNoGridResolvesSaysSo) {
 TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
   // A rigid contact at D = 1e-150 diverged with no hint: the gap
   // Hc + (X^2 + D Y^2) / 2 puts the formula's pressure zone sqrt(2 Hc / D)
-  // to either side, far beyond any domain.  The edges it passes are named.
+  // to either side, beyond the domain.  The edges it passes are named, and
+  // where no domain of 4097 points both holds and resolves it, that is said.
   const auto message = [](std::vector<std::string> settings) {
     settings.insert(settings.end(), {"body.elastic=false", "case.L=0", "grid.points=33"});
     return failure_message(load_rolling_config(std::nullopt, settings));
@@ -626,27 +630,39 @@ TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
   EXPECT_TRUE(
       m.ends_with("; the rigid formula's film Hc = 5.14e+146 at D = 1e-150 makes the "
                   "pressure zone extend about sqrt(2 Hc) = 3.21e+73 upstream (X) and "
-                  "sqrt(2 Hc / D) = 3.21e+148 to either side (Y), beyond the inlet edge "
-                  "X = -4.5 and the side edges Y = -3, 3: extend the domain (grid.x_min, "
-                  "grid.y_min, grid.y_max)"))
+                  "sqrt(2 Hc / D) = 3.21e+148 to either side (Y): a domain that holds it "
+                  "needs about 6e+75 points per side for 3 meshes across sqrt(2 Hc), more "
+                  "than the 4097 allowed: no grid resolves this contact"))
       << m;
-  // Where the message says already that the film depends on the domain
-  // (the load at its edges), it does not say again to extend it.
-  m = message({"case.D=1e-20"});
-  EXPECT_NE(m.find("the film depends on the domain; extend it"), std::string::npos) << m;
-  EXPECT_TRUE(m.ends_with("beyond the inlet edge X = -4.5 and the side edges Y = -3, 3")) << m;
+  // The formula's film beyond a double: no inf in the message.
+  m = message({"case.D=1e-295", "case.M=1e-10"});
+  EXPECT_TRUE(
+      m.ends_with("; the rigid formula's film at M = 1e-10, D = 1e-295 is beyond the range "
+                  "of a double: no domain holds its pressure zone"))
+      << m;
   // A zone both below the mesh and beyond a short inlet: more points, and a
-  // longer inlet, not "more points or a smaller domain".
+  // longer inlet, not "more points or a smaller domain"; the film once.
   m = message({"grid.x_min=-0.001", "grid.x_max=10", "grid.y_min=-5", "grid.y_max=5.001"});
   EXPECT_NE(m.find("the grid cannot resolve this film: use more points (at least about"),
             std::string::npos)
       << m;
   EXPECT_EQ(m.find("smaller domain"), std::string::npos) << m;
-  EXPECT_TRUE(m.ends_with("beyond the inlet edge X = -0.001: extend the domain (grid.x_min)")) << m;
+  EXPECT_TRUE(
+      m.ends_with("; its pressure zone extends about sqrt(2 Hc) = 0.0171 upstream (X) and "
+                  "sqrt(2 Hc / D) = 0.0171 to either side (Y), beyond the inlet edge X = "
+                  "-0.001: extend the domain (grid.x_min)"))
+      << m;
   // Only the film's resolution where the zone fits: the formula's zone of
-  // M = 100 is 0.017 wide on the default domain.
+  // M = 100 is 0.017 wide on the default domain ...
   m = message({"case.D=1"});
   EXPECT_TRUE(m.ends_with("or a smaller domain")) << m;
+  // ... and where that would take more than 4097 points, says so.
+  m = message({"case.D=10"});
+  EXPECT_TRUE(
+      m.ends_with("the grid cannot resolve this film: it needs about 1.6e+04 points per "
+                  "side for 3 meshes there, more than the 4097 allowed: only a smaller "
+                  "domain that still holds the contact may resolve it"))
+      << m;
 }
 
 TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {

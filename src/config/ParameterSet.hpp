@@ -18,6 +18,7 @@
 #include <variant>
 #include <vector>
 
+#include "grid/Grid.hpp"  // kMinGridPoints, kMaxGridPoints
 #include "impact/Scaling.hpp"
 #include "reynolds/SolverSettings.hpp"
 #include "rheology/Lubricant.hpp"
@@ -82,9 +83,6 @@ struct SectionSpec {
   std::string doc;
 };
 
-/// Grid sizes the solver accepts: 2^k + 1 between these bounds.
-inline constexpr int kMinGridPoints = 9;
-inline constexpr int kMaxGridPoints = 4097;
 /// Most relaxation sweeps before or after the coarse-grid correction.  A
 /// signal is acted on between cycles, so one cycle must end in reasonable
 /// time (solver.pre_sweeps = 2e9 ran on after SIGTERM); more sweeps never paid

@@ -26,6 +26,10 @@
 
 namespace ehlsim {
 
+/// Grid sizes the solver accepts: 2^k + 1 between these bounds.
+inline constexpr int kMinGridPoints = 9;
+inline constexpr int kMaxGridPoints = 4097;
+
 /// The centre of a full grid's square.
 struct GridCenter {
   double x = 0.0;

@@ -57,7 +57,9 @@ void write_json_atomic(const std::filesystem::path& path, const nlohmann::json& 
       throw std::runtime_error(fmt::format("cannot write '{}': {}", file.part_path().string(),
                                            std::generic_category().message(errno)));
     }
-    out << json.dump(kJsonIndent) << '\n';
+    // A path that is no UTF-8 (--out $'o\x80') made dump() throw after the
+    // run, and the run was lost: such bytes are written as U+FFFD.
+    out << json.dump(kJsonIndent, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     out.close();
     if (!out) {
       throw std::runtime_error(fmt::format("cannot write '{}': {}", file.part_path().string(),

@@ -540,6 +540,21 @@ FilmZone film_zone(const RollingConfig& c) {
           "the pressure zone about sqrt(2 Hc)"};
 }
 
+/// The advice of a film below the grid's resolution that needs `points` per
+/// side on this domain: more points, or where more than kMaxGridPoints, that no
+/// grid on a domain that holds the contact resolves it (`domain_said`: the
+/// message says already that the domain is too small) or a smaller domain.
+std::string more_points_text(double points, double hint_meshes, bool domain_said) {
+  if (points > kMaxGridPoints)
+    return fmt::format(
+        "it needs about {:.2g} points per side for {:g} meshes there, more than the {} allowed: {}",
+        points, hint_meshes, kMaxGridPoints,
+        domain_said ? "no grid resolves it on a domain that holds the contact"
+                    : "only a smaller domain that still holds the contact may resolve it");
+  return fmt::format("use more points (at least about {:.2g} per side, for {:g} meshes there){}",
+                     points, hint_meshes, domain_said ? "" : " or a smaller domain");
+}
+
 /// Why a run failed when its film is below the grid's resolution (fewer
 /// meshes across its FilmZone than min_meshes), else "".  `domain_said`: the
 /// message says already that the domain is too small, so a smaller one is not
@@ -557,37 +572,81 @@ std::string resolution_hint(const RollingConfig& c, double mesh, bool domain_sai
         c.elastic ? "" : "rigid ", zone.hc, c.D, zone.name, zone.width);
   return fmt::format(
       "; the {}formula's film Hc = {:.3g} makes {} = {:.3g} wide, {:.2g} meshes: the grid cannot "
-      "resolve this film: use more points (at least about {:.2g} per side, for {:g} meshes "
-      "there){}",
-      c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes, points, zone.hint_meshes,
-      domain_said ? "" : " or a smaller domain");
+      "resolve this film: {}",
+      c.elastic ? "" : "rigid ", zone.hc, zone.name, zone.width, meshes,
+      more_points_text(points, zone.hint_meshes, domain_said));
+}
+
+/// The pressure zone of a rigid contact by the formula's film: the gap is
+/// Hc + (X^2 + D Y^2) / 2, so the zone extends about sqrt(2 Hc) upstream (X)
+/// and sqrt(2 Hc / D) to either side (Y).
+struct RigidZone {
+  double hc;
+  double upstream;
+  double aside;
+  /// The points per side of the smallest domain that holds the zone, for
+  /// kRigidMinMeshes across sqrt(2 Hc): above kMaxGridPoints (D below about
+  /// 2e-6) no grid both holds and resolves it.
+  [[nodiscard]] double holding_points() const {
+    return std::max(upstream, 2.0 * aside) * kRigidMinMeshes / upstream + 1.0;
+  }
+};
+
+RigidZone rigid_zone(const RollingConfig& c) {
+  const double hc = formula_central_film(c);
+  const double upstream = std::sqrt(2.0 * hc);
+  return {hc, upstream, upstream / std::sqrt(c.D)};  // 2 Hc / D overflows at D = 1e-295
 }
 
 /// Why a rigid run failed when the formula's pressure zone reaches beyond the
-/// domain, else "".  The gap is Hc + (X^2 + D Y^2) / 2, so the zone extends
-/// about sqrt(2 Hc) upstream (X) and sqrt(2 Hc / D) to either side (Y): at
-/// case.D = 1e-150 the formula's Hc is 5e146 (M = 100) and the iteration diverged with
-/// no word of why.  `domain_said`: the message says already to extend it.
-std::string rigid_zone_hint(const RollingConfig& c, bool domain_said) {
-  const double hc = formula_central_film(c);
-  // sqrt(2 Hc) / sqrt(D): 2 Hc / D overflows at D = 1e-295.
-  const double upstream = std::sqrt(2.0 * hc), aside = upstream / std::sqrt(c.D);
+/// domain, else "": at case.D = 1e-150 the formula's Hc is 5e146 (M = 100)
+/// and the iteration diverged with no word of why.  `film_said`: the message
+/// states the formula's film already; `domain_said`: it says to extend the
+/// domain already.
+std::string rigid_zone_hint(const RollingConfig& c, bool film_said, bool domain_said) {
+  const RigidZone zone = rigid_zone(c);
   std::vector<std::string> edges, keys;
-  if (upstream > -c.x_min) {
+  if (zone.upstream > -c.x_min) {
     edges.push_back(fmt::format("the inlet edge X = {:g}", c.x_min));
     keys.emplace_back("grid.x_min");
   }
-  if (aside > std::min(-c.y_min, c.y_max)) {
+  if (zone.aside > std::min(-c.y_min, c.y_max)) {
     edges.push_back(fmt::format("the side edges Y = {:g}, {:g}", c.y_min, c.y_max));
     keys.insert(keys.end(), {"grid.y_min", "grid.y_max"});
   }
   if (edges.empty()) return {};
+  const std::string film =
+      film_said ? "; its pressure zone extends"
+                : fmt::format(
+                      "; the rigid formula's film Hc = {:.3g} at D = {:.3g} makes the "
+                      "pressure zone extend",
+                      zone.hc, c.D);
+  return fmt::format(
+      "{} about sqrt(2 Hc) = {:.3g} upstream (X) and sqrt(2 Hc / D) = {:.3g} to "
+      "either side (Y), beyond {}{}",
+      film, zone.upstream, zone.aside, fmt::join(edges, " and "),
+      domain_said ? "" : fmt::format(": extend the domain ({})", fmt::join(keys, ", ")));
+}
+
+/// Why no grid resolves a rigid contact, else "": a formula's film beyond a
+/// double (M = 1e-10, D = 1e-295), or a zone no domain of kMaxGridPoints both
+/// holds and resolves (extending the domain as the zone hint asked led to
+/// "use more points").
+std::string unresolvable_rigid_hint(const RollingConfig& c) {
+  const RigidZone zone = rigid_zone(c);
+  if (!std::isfinite(zone.hc) || !std::isfinite(zone.aside))
+    return fmt::format(
+        "; the rigid formula's film at M = {:.3g}, D = {:.3g} is beyond the range of a double: no "
+        "domain holds its pressure zone",
+        c.M, c.D);
+  if (!(zone.holding_points() > kMaxGridPoints)) return {};
   return fmt::format(
       "; the rigid formula's film Hc = {:.3g} at D = {:.3g} makes the pressure zone extend about "
-      "sqrt(2 Hc) = {:.3g} upstream (X) and sqrt(2 Hc / D) = {:.3g} to either side (Y), beyond "
-      "{}{}",
-      hc, c.D, upstream, aside, fmt::join(edges, " and "),
-      domain_said ? "" : fmt::format(": extend the domain ({})", fmt::join(keys, ", ")));
+      "sqrt(2 Hc) = {:.3g} upstream (X) and sqrt(2 Hc / D) = {:.3g} to either side (Y): a domain "
+      "that holds it needs about {:.2g} points per side for {:g} meshes across sqrt(2 Hc), more "
+      "than the {} allowed: no grid resolves this contact",
+      zone.hc, c.D, zone.upstream, zone.aside, zone.holding_points(), kRigidMinMeshes,
+      kMaxGridPoints);
 }
 
 /// Why a rigid run failed, for its message: its film unresolved or beyond the
@@ -597,8 +656,10 @@ std::string rigid_zone_hint(const RollingConfig& c, bool domain_said) {
 /// isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the integral of -ln(1 - P /
 /// P_max) and F the load).
 std::string rigid_hint(const RollingConfig& c, double mesh, bool domain_said) {
-  const std::string beyond = rigid_zone_hint(c, domain_said);
-  const std::string unresolved = resolution_hint(c, mesh, domain_said || !beyond.empty());
+  if (std::string none = unresolvable_rigid_hint(c); !none.empty()) return none;
+  const bool beyond_domain = !rigid_zone_hint(c, false, true).empty();
+  const std::string unresolved = resolution_hint(c, mesh, domain_said || beyond_domain);
+  const std::string beyond = rigid_zone_hint(c, !unresolved.empty(), domain_said);
   if (!unresolved.empty() || !beyond.empty()) return unresolved + beyond;
   if (c.L > 0.0)
     return fmt::format(
