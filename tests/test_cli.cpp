@@ -255,6 +255,25 @@ TEST(Cli, RunawayValuesAreShortenedInErrors) {
       << long_path.err;
 }
 
+TEST(Cli, ADirectoryNamedWithBytesThatAreNoTextIsWrittenAndShownSafely) {
+  // --out $'o\xc2\x9b\x80': the report printed U+009B (a CSI) raw, and
+  // run.json could not be written after the last step (a byte that is no
+  // UTF-8): the run was lost with exit 1.
+  TempDir dir;
+  const std::string name =
+      "o\xc2\x9b"
+      "\x80";
+  const Result r = ehlsim(
+      "impact --set grid.points=33 --set body.elastic=false --set "
+      "time.T_end=0.1 --out " +
+      quote((dir / name).string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find("\xc2\x9b"), std::string::npos);
+  EXPECT_NE(r.out.find("o\\xc2\\x9b\\x80"), std::string::npos) << r.out;
+  const auto json = nlohmann::json::parse(read_file(dir / name / "run.json"));
+  EXPECT_EQ(json["invocation"]["out"], (dir / "o\xc2\x9b\xef\xbf\xbd").string());  // U+FFFD
+}
+
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
   // (An --out below a file, once the example here, is bad input:
   // AnOutThatIsOrLiesInAFileIsBadInput.)
