@@ -221,8 +221,9 @@ std::pair<std::size_t, long> utf8_sequence(std::string_view text) {
     if ((byte(i) & 0xc0) != 0x80) return {1, -1};
     code = (code << 6) | (byte(i) & 0x3f);
   }
-  constexpr std::array<long, 4> kSmallest = {0, 0, 0x80, 0x800};
-  const bool overlong = length > 2 && code < kSmallest[length - 1];
+  // The smallest code point of each length: below it the sequence is overlong.
+  constexpr std::array<long, 5> kSmallest = {0, 0, 0x80, 0x800, 0x10000};
+  const bool overlong = code < kSmallest[length];
   if (overlong || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff)) return {1, -1};
   return {length, code};
 }

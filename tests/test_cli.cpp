@@ -216,13 +216,15 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
                    "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
   // A terminal acts on UTF-8's C1 controls (U+009B is a CSI), on the
   // bidirectional overrides (U+202E reverses what follows) and, in an 8-bit
-  // charset, on bytes that form no UTF-8 character: escaped too.  Other
+  // charset, on bytes that form no UTF-8 character (an overlong U+07FF
+  // here): escaped too.  Other
   // UTF-8 text stays as it is.
-  expect_bad_input(
-      ehlsim("impact " + quote("cfg\xc2\x9b"
-                               "31m\xe2\x80\xae\x9b-\xc3\xa9.toml")),
-      "cannot read config file 'cfg\\xc2\\x9b31m\\xe2\\x80\\xae\\x9b-\xc3\xa9.toml': No "
-      "such file or directory");
+  expect_bad_input(ehlsim("impact " + quote("cfg\xc2\x9b"
+                                            "31m\xe2\x80\xae\x9b-\xc3\xa9\xe0\x9f\xbf.toml")),
+                   "cannot read config file "
+                   "'cfg\\xc2\\x9b31m\\xe2\\x80\\xae\\x9b-\xc3\xa9\\xe0\\x9f\\xbf.toml': "
+                   "No "
+                   "such file or directory");
 }
 
 TEST(Cli, RunawayValuesAreShortenedInErrors) {
