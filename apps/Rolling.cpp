@@ -49,7 +49,7 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
 /// The status line after one multigrid cycle.
 std::string cycle_text(const RollingCycle& c, double elapsed, bool done) {
   const std::string retry = c.attempt > 0 ? fmt::format(" (retry at damping {:g})", c.damping) : "";
-  return fmt::format("{}^2 cycle {}: residual {:.3e}, force error {:+.2e}, Hc {:.6f}{}  {}{}",
+  return fmt::format("{}^2 cycle {}: residual {:.3e}, force error {:+.2e}, Hc {:.6g}{}  {}{}",
                      c.points, c.cycle, c.residual, c.force_error, c.Hc, retry,
                      done ? "done in " : "", format_duration(elapsed));
 }
