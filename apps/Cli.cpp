@@ -228,12 +228,14 @@ std::pair<std::size_t, long> utf8_sequence(std::string_view text) {
   return {length, code};
 }
 
-/// Code points a terminal acts on rather than shows: the C1 controls (U+009B
-/// is a CSI) and the bidirectional overrides and isolates, which reorder what
-/// follows them on the line.
+/// Code points a terminal acts on, or shows as nothing, rather than as a
+/// character: the C1 controls (U+009B is a CSI), the bidirectional marks,
+/// overrides and isolates, which reorder what follows them on the line, the
+/// line and paragraph separators, and the zero-width characters, which make
+/// two names look alike.
 bool acts_on_terminal(long code) {
-  return (code >= 0x80 && code <= 0x9f) || (code >= 0x202a && code <= 0x202e) ||
-         (code >= 0x2066 && code <= 0x2069);
+  return (code >= 0x80 && code <= 0x9f) || code == 0x061c || (code >= 0x200b && code <= 0x200f) ||
+         (code >= 0x2028 && code <= 0x202e) || (code >= 0x2060 && code <= 0x2069) || code == 0xfeff;
 }
 }  // namespace
 

@@ -214,17 +214,17 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
                    "cannot read config file 'cfg\\x0a.toml': No such file or directory");
   expect_bad_input(ehlsim(""),
                    "no command given (commands: impact, spike, study, rolling; try ehlsim --help)");
-  // A terminal acts on UTF-8's C1 controls (U+009B is a CSI), on the
-  // bidirectional overrides (U+202E reverses what follows) and, in an 8-bit
-  // charset, on bytes that form no UTF-8 character (an overlong U+07FF
-  // here): escaped too.  Other
-  // UTF-8 text stays as it is.
-  expect_bad_input(ehlsim("impact " + quote("cfg\xc2\x9b"
-                                            "31m\xe2\x80\xae\x9b-\xc3\xa9\xe0\x9f\xbf.toml")),
-                   "cannot read config file "
-                   "'cfg\\xc2\\x9b31m\\xe2\\x80\\xae\\x9b-\xc3\xa9\\xe0\\x9f\\xbf.toml': "
-                   "No "
-                   "such file or directory");
+  // A terminal acts on UTF-8's C1 controls (U+009B is a CSI) and the
+  // bidirectional overrides (U+202E reverses what follows), shows zero-width
+  // characters (U+200B) as nothing and, in an 8-bit charset, takes bytes that
+  // form no UTF-8 character (an overlong U+07FF here) for C1: all escaped.
+  // Other UTF-8 text stays as it is.
+  expect_bad_input(
+      ehlsim("impact " + quote("cfg\xc2\x9b"
+                               "31m\xe2\x80\xae\x9b-\xc3\xa9\xe0\x9f\xbf\xe2\x80\x8b.toml")),
+      "cannot read config file "
+      "'cfg\\xc2\\x9b31m\\xe2\\x80\\xae\\x9b-\xc3\xa9\\xe0\\x9f\\xbf\\xe2\\x80\\x8b.toml': "
+      "No such file or directory");
 }
 
 TEST(Cli, RunawayValuesAreShortenedInErrors) {
