@@ -111,6 +111,12 @@ CLI::Validator path_name(const std::string& what) {
               "{0}{1}: looks like an option, not {2}: write ./{1} for a name "
               "that starts with '-'",
               kValueMark, printable(value), what);
+        // `--out==x` made the directory "=x".
+        if (value.front() == '=')
+          return fmt::format(
+              "{0}{1}: starts with '=' (one '=' too many?): write ./{1} for a name "
+              "that starts with '='",
+              kValueMark, printable(value));
         return std::string();
       },
       "", "PATH_NAME");
@@ -138,22 +144,29 @@ void add_quiet_flag(CLI::App& command, bool& quiet) {
 }
 
 namespace {
-/// The option `name` of the command that argv[1] names (or of ehlsim itself:
-/// --help), nullptr where it has none: CLI11 then says what it does not expect.
+/// The option `name` of the command that argv[1] names, or of ehlsim itself
+/// when argv[1] names none (`ehlsim --help=1`); nullptr where it has none:
+/// CLI11 then says what it does not expect.
 const CLI::Option* option_of_command(const CLI::App& app, const std::string& name, int argc,
                                      char** argv) {
-  if (const CLI::Option* option = app.get_option_no_throw(name)) return option;
-  if (argc < 2) return nullptr;
-  const std::string_view first = argv[1];
+  const std::string_view first = argc > 1 ? argv[1] : "";
   for (const CLI::App* command :
        app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; }))
     return command->get_option_no_throw(name);
-  return nullptr;
+  return app.get_option_no_throw(name);
 }
 
-/// The short option whose value a cluster "-qo" takes: its last letter's.
-std::string last_short_option(const std::string& name) {
-  return name.starts_with("--") || name.size() <= 2 ? name : "-" + name.substr(name.size() - 1);
+/// The option of a short cluster "-abc" that CLI11 gives the text after it:
+/// its first letter that takes a value ("-oq=x" is -o with "q=x", as "-ofile"
+/// is -o with "file"), else its last (a flag, or nullptr: unknown).
+const CLI::Option* cluster_option(const CLI::App& app, std::string_view letters, int argc,
+                                  char** argv) {
+  const CLI::Option* option = nullptr;
+  for (const char letter : letters) {
+    option = option_of_command(app, std::string("-") + letter, argc, argv);
+    if (option == nullptr || option->get_expected_max() != 0) return option;
+  }
+  return option;
 }
 }  // namespace
 
@@ -162,21 +175,25 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
     const std::string_view arg = argv[i];
     if (arg == "--") break;  // positional arguments from here on
     const std::size_t equals = arg.find('=');
-    if (!arg.starts_with('-') || equals == std::string_view::npos) continue;
+    if (!arg.starts_with('-') || equals == std::string_view::npos || equals < 2) continue;
     const std::string name(arg.substr(0, equals));
-    const CLI::Option* option = option_of_command(app, last_short_option(name), argc, argv);
+    const bool is_long = name.starts_with("--");
+    const CLI::Option* option = is_long ? option_of_command(app, name, argc, argv)
+                                        : cluster_option(app, name.substr(1), argc, argv);
     if (option == nullptr) continue;
     // --quiet=5 and --quiet=no were read as --quiet, --no-plots=0 as --no-plots.
     if (option->get_expected_max() == 0) return name + " takes no value (see --help)";
-    // CLI11 reads -o=run (and -qo=run) as the directory "=run".
-    if (!name.starts_with("--")) {
+    // The value-taking letter of a cluster is found by its short name.
+    const std::string letter = is_long ? std::string() : "-" + option->get_snames().front();
+    if (!is_long && name.ends_with(letter.substr(1))) {
+      // CLI11 reads -o=run (and -qo=run) as the directory "=run".
       const std::vector<std::string>& long_names = option->get_lnames();
       return fmt::format("{}: a short option takes its value after a space: {} VALUE{}",
-                         printable(arg), last_short_option(name),
+                         printable(arg), letter,
                          long_names.empty() ? "" : " or --" + long_names.front() + "=VALUE");
     }
     // "--out= run" took "run" as the value.
-    if (equals + 1 == arg.size()) return name + " is given no value (see --help)";
+    if (is_long && equals + 1 == arg.size()) return name + " is given no value (see --help)";
   }
   return {};
 }
@@ -231,11 +248,13 @@ std::pair<std::size_t, long> utf8_sequence(std::string_view text) {
 /// Code points a terminal acts on, or shows as nothing, rather than as a
 /// character: the C1 controls (U+009B is a CSI), the bidirectional marks,
 /// overrides and isolates, which reorder what follows them on the line, the
-/// line and paragraph separators, and the zero-width characters, which make
-/// two names look alike.
+/// line and paragraph separators, and the invisible format characters (zero
+/// widths, soft hyphen, tags), which make two names look alike.
 bool acts_on_terminal(long code) {
-  return (code >= 0x80 && code <= 0x9f) || code == 0x061c || (code >= 0x200b && code <= 0x200f) ||
-         (code >= 0x2028 && code <= 0x202e) || (code >= 0x2060 && code <= 0x2069) || code == 0xfeff;
+  return (code >= 0x80 && code <= 0x9f) || code == 0xad || code == 0x061c || code == 0x180e ||
+         (code >= 0x200b && code <= 0x200f) || (code >= 0x2028 && code <= 0x202e) ||
+         (code >= 0x2060 && code <= 0x206f) || code == 0xfeff ||
+         (code >= 0xfff9 && code <= 0xfffb) || (code >= 0xe0000 && code <= 0xe007f);
 }
 }  // namespace
 

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -20,6 +21,8 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
+[[nodiscard]] std::string printable(std::string_view text);  // below, for shown()
+
 /// Writes `text` to stdout with each of its lines made printable (as
 /// print_error does: a run directory named with a C1 control reached the
 /// terminal raw).  A write that fails because the reader went away
@@ -28,11 +31,21 @@ inline constexpr int kExitBadInput = 2;
 /// code tells what it left on disk (SIGPIPE is ignored: apps/ehlsim.cpp).
 void write_out(std::string_view text);
 
+/// A text argument of print_out made printable (a newline of a path in it
+/// broke the report's line), any other as it is.
+template <typename T>
+decltype(auto) shown(const T& arg) {
+  if constexpr (std::is_convertible_v<const T&, std::string_view>)
+    return printable(std::string_view(arg));
+  else
+    return (arg);
+}
+
 /// Text for stdout: what a command reports as it goes (the case, a study's
-/// progress, the summary), through write_out.
+/// progress, the summary), its text arguments through shown, through write_out.
 template <typename... Args>
 void print_out(fmt::format_string<Args...> format, Args&&... args) {
-  write_out(fmt::format(format, std::forward<Args>(args)...));
+  write_out(fmt::format(fmt::runtime(fmt::string_view(format)), shown(args)...));
 }
 
 /// "ehlsim: error: <message>" as one line on stderr, after what stdout holds

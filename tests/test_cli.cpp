@@ -162,6 +162,9 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("rolling --out -"),
                    "--out = -: looks like an option, not a directory: write ./- for a name that "
                    "starts with '-'");
+  expect_bad_input(ehlsim("impact --out==x"),
+                   "--out = =x: starts with '=' (one '=' too many?): write ./=x for a name that "
+                   "starts with '='");
   // Flags take no value: --quiet=5 ran as --quiet.
   expect_bad_input(ehlsim("impact --quiet=5 --out x"), "--quiet takes no value (see --help)");
   expect_bad_input(ehlsim("rolling --quiet=no --out x"), "--quiet takes no value (see --help)");
@@ -172,6 +175,11 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   // A short option's '=' is part of its value for CLI11: -o=x made "=x".
   expect_bad_input(ehlsim("impact -o=x"),
                    "-o=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
+  expect_bad_input(ehlsim("impact -qo=x"),
+                   "-qo=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
+  // An option of ehlsim itself, not of the command: what CLI11 says of it.
+  expect_bad_input(ehlsim("impact --version=1"),
+                   "The following argument was not expected: --version=1");
   // After "--" everything is positional: a config file named so.
   expect_bad_input(ehlsim("impact --out x -- --quiet=1"),
                    "cannot read config file '--quiet=1': No such file or directory");
@@ -274,6 +282,14 @@ TEST(Cli, ADirectoryNamedWithBytesThatAreNoTextIsWrittenAndShownSafely) {
   EXPECT_NE(r.out.find("o\\xc2\\x9b\\x80"), std::string::npos) << r.out;
   const auto json = nlohmann::json::parse(read_file(dir / name / "run.json"));
   EXPECT_EQ(json["invocation"]["out"], (dir / "o\xc2\x9b\xef\xbf\xbd").string());  // U+FFFD
+  // A newline of the name broke the report's lines.
+  const Result nl = ehlsim(
+      "impact --set grid.points=33 --set body.elastic=false --set "
+      "time.T_end=0.1 --out " +
+      quote((dir / "n\nl").string()));
+  ASSERT_EQ(nl.exit_code, 0) << nl.err;
+  EXPECT_NE(nl.out.find("n\\x0al\n"), std::string::npos) << nl.out;
+  EXPECT_EQ(nl.out.find("n\nl"), std::string::npos) << nl.out;
 }
 
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
