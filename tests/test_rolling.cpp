@@ -513,8 +513,8 @@ TEST(Rolling, UnresolvedRigidFilmFailsWithAHint) {
                          "sqrt(2 Hc) = 0.0171 wide"),
             std::string::npos)
       << message;
-  EXPECT_NE(message.find("the grid cannot resolve this film: use more points (at least about "
-                         "1.1e+03 per side, for 3 meshes there)"),
+  EXPECT_NE(message.find("the grid cannot resolve this film: use more points (grid.points = "
+                         "2049 or more, for 3 meshes there)"),
             std::string::npos)
       << message;
 }
@@ -634,6 +634,21 @@ TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
                   "needs about 6e+75 points per side for 3 meshes across sqrt(2 Hc), more "
                   "than the 4097 allowed: no grid resolves this contact"))
       << m;
+  // No grid resolves it: the message does not ask to extend the domain ...
+  m = message(
+      {"case.D=1e-7", "grid.x_min=-150", "grid.x_max=50", "grid.y_min=-100", "grid.y_max=100"});
+  EXPECT_TRUE(m.ends_with("no grid resolves this contact")) << m;
+  EXPECT_EQ(m.find("extend it"), std::string::npos) << m;
+  EXPECT_EQ(m.find("extend the domain"), std::string::npos) << m;
+  // ... nor does the warning of a run that converges on a domain that cuts
+  // the zone short (Hc 0.008 against the formula's 5e3).
+  const RollingResult cut = solve(load_rolling_config(
+      std::nullopt, {"body.elastic=false", "case.L=0", "case.D=1e-7", "grid.points=33"}));
+  ASSERT_EQ(cut.warnings.size(), 1u);
+  EXPECT_TRUE(cut.warnings[0].starts_with(
+      "the film is that of this domain, not of the contact: the rigid formula's film Hc = "))
+      << cut.warnings[0];
+  EXPECT_TRUE(cut.warnings[0].ends_with("no grid resolves this contact")) << cut.warnings[0];
   // The formula's film beyond a double: no inf in the message.
   m = message({"case.D=1e-295", "case.M=1e-10"});
   EXPECT_TRUE(
@@ -643,7 +658,8 @@ TEST(Rolling, ARigidFilmBeyondTheDomainSaysSo) {
   // A zone both below the mesh and beyond a short inlet: more points, and a
   // longer inlet, not "more points or a smaller domain"; the film once.
   m = message({"grid.x_min=-0.001", "grid.x_max=10", "grid.y_min=-5", "grid.y_max=5.001"});
-  EXPECT_NE(m.find("the grid cannot resolve this film: use more points (at least about"),
+  EXPECT_NE(m.find("the grid cannot resolve this film: use more points (grid.points = 2049 or "
+                   "more, for 3 meshes there)"),
             std::string::npos)
       << m;
   EXPECT_EQ(m.find("smaller domain"), std::string::npos) << m;

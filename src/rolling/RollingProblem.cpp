@@ -459,6 +459,11 @@ std::string RollingProblem::Impl::domain_hint() {
   return note.empty() ? note : "; " + note;
 }
 
+namespace {
+/// Why no grid resolves a rigid contact, else "" (defined below).
+std::string unresolvable_rigid_hint(const RollingConfig& c);
+}  // namespace
+
 RollingResult RollingProblem::Impl::result() const {
   const reynolds::ReynoldsOperator& op = hierarchy.finest();
   RollingResult r;
@@ -482,8 +487,14 @@ RollingResult RollingProblem::Impl::result() const {
   r.work = hierarchy.work_units();
   r.each_colour = cfg.relaxation.deformation_each_colour;
   r.edge_load = edge_load_share(grid, r.P);
-  if (std::string note = domain_note(r.edge_load); !note.empty())
-    r.warnings.push_back(std::move(note));
+  if (std::string note = domain_note(r.edge_load); !note.empty()) {
+    // A rigid contact no grid resolves (D = 1e-7: Hc 0.008 against the
+    // formula's 1.45e5) was told to extend the domain, which cannot help.
+    const std::string none = cfg.elastic ? std::string() : unresolvable_rigid_hint(cfg);
+    r.warnings.push_back(none.empty() ? std::move(note)
+                                      : "the film is that of this domain, not of the contact: " +
+                                            none.substr(2));
+  }
   r.Hc_moes_nvm = nvm_central_film(cfg.M, cfg.L, cfg.D);
   r.nvm_deviation = hertz_to_moes_film(r.Hc, cfg.M) / r.Hc_moes_nvm - 1.0;
   // A film that depends on the domain is far from the formula for that reason.
@@ -551,8 +562,10 @@ std::string more_points_text(double points, double hint_meshes, bool domain_said
         points, hint_meshes, kMaxGridPoints,
         domain_said ? "no grid resolves it on a domain that holds the contact"
                     : "only a smaller domain that still holds the contact may resolve it");
-  return fmt::format("use more points (at least about {:.2g} per side, for {:g} meshes there){}",
-                     points, hint_meshes, domain_said ? "" : " or a smaller domain");
+  int grid_points = kMinGridPoints;  // the next size the grid takes, 2^k + 1
+  while (grid_points < points) grid_points = 2 * grid_points - 1;
+  return fmt::format("use more points (grid.points = {} or more, for {:g} meshes there){}",
+                     grid_points, hint_meshes, domain_said ? "" : " or a smaller domain");
 }
 
 /// Why a run failed when its film is below the grid's resolution (fewer
@@ -766,6 +779,9 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
     if (!(c.elastic && c.fallback_update && out_of_cycles && domain.empty() &&
           unresolved.empty())) {
       std::string why;
+      // Where no grid resolves a rigid contact, extending the domain cannot help.
+      if (std::string none = c.elastic ? std::string() : unresolvable_rigid_hint(c); !none.empty())
+        throw RollingFailure(e.what() + none);
       if (!c.elastic) {
         why = rigid_hint(c, impl_->grid.h(), !domain.empty());
       } else if (!unresolved.empty()) {
