@@ -270,23 +270,21 @@ TEST(Cli, ADirectoryNamedWithBytesThatAreNoTextIsWrittenAndShownSafely) {
   // run.json could not be written after the last step (a byte that is no
   // UTF-8): the run was lost with exit 1.
   TempDir dir;
+  const auto run_into = [](const fs::path& out) {
+    return ehlsim("impact --set grid.points=33 --set body.elastic=false --set time.T_end=0.1 " +
+                  std::string("--out ") + quote(out.string()));
+  };
   const std::string name =
       "o\xc2\x9b"
       "\x80";
-  const Result r = ehlsim(
-      "impact --set grid.points=33 --set body.elastic=false --set "
-      "time.T_end=0.1 --out " +
-      quote((dir / name).string()));
+  const Result r = run_into(dir / name);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.out.find("\xc2\x9b"), std::string::npos);
   EXPECT_NE(r.out.find("o\\xc2\\x9b\\x80"), std::string::npos) << r.out;
   const auto json = nlohmann::json::parse(read_file(dir / name / "run.json"));
   EXPECT_EQ(json["invocation"]["out"], (dir / "o\xc2\x9b\xef\xbf\xbd").string());  // U+FFFD
   // A newline of the name broke the report's lines.
-  const Result nl = ehlsim(
-      "impact --set grid.points=33 --set body.elastic=false --set "
-      "time.T_end=0.1 --out " +
-      quote((dir / "n\nl").string()));
+  const Result nl = run_into(dir / "n\nl");
   ASSERT_EQ(nl.exit_code, 0) << nl.err;
   EXPECT_NE(nl.out.find("n\\x0al\n"), std::string::npos) << nl.out;
   EXPECT_EQ(nl.out.find("n\nl"), std::string::npos) << nl.out;
