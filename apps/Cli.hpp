@@ -87,8 +87,8 @@ void add_case_options(CLI::App& command, CaseOptions& options, const std::string
 [[nodiscard]] CLI::Validator not_empty(const std::string& what);
 
 /// Refuses an argument of an option that names a file or directory when it is
-/// empty ("--out: must name a directory, not be empty") or starts with '-',
-/// as an option that stood in its place does.
+/// empty ("--out: must name a directory, not be empty"), starts with '-', as
+/// an option that stood in its place does, or starts with '=' ("--out==x").
 [[nodiscard]] CLI::Validator path_name(const std::string& what);
 
 /// Refuses an integer option's value unless it is written in decimal digits,
@@ -100,8 +100,10 @@ void add_quiet_flag(CLI::App& command, bool& quiet);
 
 /// The error of an argument that CLI11 would misread, else "": a value given
 /// to a flag ("--quiet=5", which it read as --quiet: "--quiet takes no
-/// value"), or a short option with '=' ("-o=run", which it read as the
-/// directory "=run").  Arguments after "--" are positional.
+/// value"), a short option with '=' ("-o=run" and "-qo=run", which it read
+/// as the directory "=run"), or a long one with an empty value ("--out= r",
+/// which took "r").  Options are those of the command argv[1] names, or of
+/// ehlsim itself; arguments after "--" are positional.
 [[nodiscard]] std::string refused_option_form(const CLI::App& app, int argc, char** argv);
 
 /// The commands, for the messages of a command line that names none.
@@ -110,8 +112,9 @@ inline constexpr std::string_view kCommandList =
 
 /// `text` with what a terminal would act on as escapes ("\x0a"): the control
 /// characters (a path with a newline in it kept a one-line message from being
-/// one line), UTF-8's C1 controls and bidirectional overrides, and bytes that
-/// form no UTF-8 character.  Other UTF-8 text stays as it is.
+/// one line), UTF-8's C1 controls, bidirectional controls, separators and
+/// invisible format characters, and bytes that form no UTF-8 character.
+/// Other UTF-8 text stays as it is.
 [[nodiscard]] std::string printable(std::string_view text);
 
 /// The one line for a command-line error of CLI11 that says what is allowed:
