@@ -31,14 +31,7 @@ std::string shortened_word(std::string_view word) {
 }  // namespace
 
 void write_out(std::string_view text) {
-  std::string shown;
-  for (std::size_t start = 0; start < text.size();) {
-    const std::size_t end = std::min(text.find('\n', start), text.size());
-    shown += printable(text.substr(start, end - start));
-    if (end < text.size()) shown += '\n';
-    start = end + 1;
-  }
-  std::fwrite(shown.data(), 1, shown.size(), stdout);  // its error is the reader's
+  std::fwrite(text.data(), 1, text.size(), stdout);  // its error is the reader's
 }
 
 void print_error(std::string_view message) {
@@ -72,14 +65,6 @@ namespace {
 /// before it, and parse_error_text makes that "--out = VALUE: ...", as the
 /// other errors name a key and its value.
 constexpr std::string_view kValueMark = "= ";
-
-/// The option `name` ("--grid") of `app` or of one of its commands, or nullptr.
-const CLI::Option* find_option(const CLI::App& app, const std::string& name) {
-  if (const CLI::Option* option = app.get_option_no_throw(name)) return option;
-  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; }))
-    if (const CLI::Option* option = command->get_option_no_throw(name)) return option;
-  return nullptr;
-}
 
 /// What an option of CLI11's type name `type` takes, for messages.
 std::string value_text(const std::string& type) {
@@ -209,7 +194,8 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
   constexpr std::string_view kMissing = ": 1 required ";  // "--out: 1 required TEXT missing"
   if (what.starts_with(kNotConverted)) {
     const std::string given = what.substr(kNotConverted.size());  // "--grid = abc"
-    if (const CLI::Option* option = find_option(app, given.substr(0, given.find(" = "))))
+    const std::string name = given.substr(0, given.find(" = "));
+    if (const CLI::Option* option = option_of_command(app, name, argc, argv))
       return fmt::format("{}: must be {} (see --help)", given, value_text(option->get_type_name()));
   } else if (const std::size_t at = what.find(kOnce); at != std::string::npos) {
     return fmt::format("{} is given {} times: give it once", what.substr(0, at),

@@ -23,16 +23,15 @@ inline constexpr int kExitBadInput = 2;
 
 [[nodiscard]] std::string printable(std::string_view text);  // below, for shown()
 
-/// Writes `text` to stdout with each of its lines made printable (as
-/// print_error does: a run directory named with a C1 control reached the
-/// terminal raw).  A write that fails because the reader went away
+/// Writes `text` to stdout.  A write that fails because the reader went away
 /// (`ehlsim study | head -3`) or stdout is closed is not a failure of the
 /// command: the rest of the report is lost, the run goes on, and the exit
 /// code tells what it left on disk (SIGPIPE is ignored: apps/ehlsim.cpp).
 void write_out(std::string_view text);
 
-/// A text argument of print_out made printable (a newline of a path in it
-/// broke the report's line), any other as it is.
+/// A text argument of print_out made printable, as print_error does (a run
+/// directory named with a C1 control reached the terminal raw, a newline of
+/// it broke the report's line); any other as it is.
 template <typename T>
 decltype(auto) shown(const T& arg) {
   if constexpr (std::is_convertible_v<const T&, std::string_view>)

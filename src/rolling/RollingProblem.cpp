@@ -603,6 +603,11 @@ struct RigidZone {
   [[nodiscard]] double holding_points() const {
     return std::max(upstream, 2.0 * aside) * kRigidMinMeshes / upstream + 1.0;
   }
+  /// Whether it passes the inlet edge of the domain of `c`, or its side edges.
+  [[nodiscard]] bool past_inlet(const RollingConfig& c) const { return upstream > -c.x_min; }
+  [[nodiscard]] bool past_sides(const RollingConfig& c) const {
+    return aside > std::min(-c.y_min, c.y_max);
+  }
 };
 
 RigidZone rigid_zone(const RollingConfig& c) {
@@ -619,11 +624,11 @@ RigidZone rigid_zone(const RollingConfig& c) {
 std::string rigid_zone_hint(const RollingConfig& c, bool film_said, bool domain_said) {
   const RigidZone zone = rigid_zone(c);
   std::vector<std::string> edges, keys;
-  if (zone.upstream > -c.x_min) {
+  if (zone.past_inlet(c)) {
     edges.push_back(fmt::format("the inlet edge X = {:g}", c.x_min));
     keys.emplace_back("grid.x_min");
   }
-  if (zone.aside > std::min(-c.y_min, c.y_max)) {
+  if (zone.past_sides(c)) {
     edges.push_back(fmt::format("the side edges Y = {:g}, {:g}", c.y_min, c.y_max));
     keys.insert(keys.end(), {"grid.y_min", "grid.y_max"});
   }
@@ -662,15 +667,16 @@ std::string unresolvable_rigid_hint(const RollingConfig& c) {
       kMaxGridPoints);
 }
 
-/// Why a rigid run failed, for its message: its film unresolved or beyond the
-/// domain (rigid_zone_hint), or a pressure-dependent viscosity whose steady
+/// Why a rigid run that some grid can resolve (unresolvable_rigid_hint is
+/// empty) failed, for its message: its film unresolved or beyond the domain
+/// (rigid_zone_hint), or a pressure-dependent viscosity whose steady
 /// film does not exist above a bound on alpha_bar (docs/validation.md, "Rigid bodies"; the bounds
 /// quoted are 0.43 at M = 10 from 129^2 to 1025^2 and 0.082 at M = 20 on 1025^2, from the
 /// isoviscous rigid film: alpha_bar_max = P_max^2 J^3 / F^3 with J the integral of -ln(1 - P /
 /// P_max) and F the load).
 std::string rigid_hint(const RollingConfig& c, double mesh, bool domain_said) {
-  if (std::string none = unresolvable_rigid_hint(c); !none.empty()) return none;
-  const bool beyond_domain = !rigid_zone_hint(c, false, true).empty();
+  const RigidZone zone = rigid_zone(c);
+  const bool beyond_domain = zone.past_inlet(c) || zone.past_sides(c);
   const std::string unresolved = resolution_hint(c, mesh, domain_said || beyond_domain);
   const std::string beyond = rigid_zone_hint(c, !unresolved.empty(), domain_said);
   if (!unresolved.empty() || !beyond.empty()) return unresolved + beyond;
