@@ -153,12 +153,46 @@ const CLI::Option* cluster_option(const CLI::App& app, std::string_view letters,
   }
   return option;
 }
+
+/// Whether the short cluster "-abc" holds a '-' after flags only: CLI11 read
+/// -q-out=x as -q --out=x, and -q- as -q.
+bool dash_in_cluster(const CLI::App& app, std::string_view letters, int argc, char** argv) {
+  for (const char letter : letters) {
+    if (letter == '-') return true;
+    const CLI::Option* option = option_of_command(app, std::string("-") + letter, argc, argv);
+    if (option == nullptr || option->get_expected_max() != 0) return false;
+  }
+  return false;
+}
+
+/// The command named after `first` that has the option `first` names:
+/// "ehlsim --quiet impact" was told only that --quiet was not expected.
+std::string command_after(const CLI::App& app, std::string_view first, int argc, char** argv) {
+  std::string name(first.substr(0, first.find('=')));
+  if (!name.starts_with("--")) name.resize(std::min<std::size_t>(name.size(), 2));  // -qo: -q
+  if (app.get_option_no_throw(name) != nullptr) return {};  // ehlsim's own: --help, --version
+  for (int i = 2; i < argc && std::string_view(argv[i]) != "--"; ++i)
+    for (const CLI::App* command : app.get_subcommands({}))
+      if (command->check_name(argv[i]))
+        return command->get_option_no_throw(name) != nullptr ? command->get_name() : "";
+  return {};
+}
 }  // namespace
 
 std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
+  if (argc > 2 && std::string_view(argv[1]).starts_with('-')) {
+    if (const std::string command = command_after(app, argv[1], argc, argv); !command.empty())
+      return fmt::format("{}: options follow the command: ehlsim {} {} ...", printable(argv[1]),
+                         command, printable(argv[1]));
+  }
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];
     if (arg == "--") break;  // positional arguments from here on
+    if (arg.size() > 2 && arg[0] == '-' && arg[1] != '-' &&
+        dash_in_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv))
+      return fmt::format(
+          "{}: a group of short options holds a '-': give a long option on its own (see --help)",
+          printable(arg));
     const std::size_t equals = arg.find('=');
     if (!arg.starts_with('-') || equals == std::string_view::npos || equals < 2) continue;
     const std::string name(arg.substr(0, equals));
@@ -167,7 +201,9 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
                                         : cluster_option(app, name.substr(1), argc, argv);
     if (option == nullptr) continue;
     // --quiet=5 and --quiet=no were read as --quiet, --no-plots=0 as --no-plots.
-    if (option->get_expected_max() == 0) return name + " takes no value (see --help)";
+    if (option->get_expected_max() == 0)
+      return fmt::format("{}: {} takes no value (see --help)", printable(arg),
+                         is_long ? name : "-" + option->get_snames().front());
     // The value-taking letter of a cluster is found by its short name.
     const std::string letter = is_long ? std::string() : "-" + option->get_snames().front();
     if (!is_long && name.ends_with(letter.substr(1))) {

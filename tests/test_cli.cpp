@@ -166,17 +166,31 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
                    "--out = =x: starts with '=' (one '=' too many?): write ./=x for a name that "
                    "starts with '='");
   // Flags take no value: --quiet=5 ran as --quiet.
-  expect_bad_input(ehlsim("impact --quiet=5 --out x"), "--quiet takes no value (see --help)");
-  expect_bad_input(ehlsim("rolling --quiet=no --out x"), "--quiet takes no value (see --help)");
-  expect_bad_input(ehlsim("study --no-plots=1 --out x"), "--no-plots takes no value (see --help)");
+  expect_bad_input(ehlsim("impact --quiet=5 --out x"),
+                   "--quiet=5: --quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("rolling --quiet=no --out x"),
+                   "--quiet=no: --quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("study --no-plots=1 --out x"),
+                   "--no-plots=1: --no-plots takes no value (see --help)");
   // ... and --quiet=true, which CLI11's flag override check let through.
-  expect_bad_input(ehlsim("impact --quiet=true --out x"), "--quiet takes no value (see --help)");
-  expect_bad_input(ehlsim("spike -q=1 x"), "-q takes no value (see --help)");
+  expect_bad_input(ehlsim("impact --quiet=true --out x"),
+                   "--quiet=true: --quiet takes no value (see --help)");
+  expect_bad_input(ehlsim("spike -q=1 x"), "-q=1: -q takes no value (see --help)");
+  expect_bad_input(ehlsim("impact -qq=1 --out x"), "-qq=1: -q takes no value (see --help)");
+  // CLI11 read -q-out=x as -q --out=x, and -q- as -q.
+  const std::string kDashInCluster =
+      ": a group of short options holds a '-': give a long option on its own (see --help)";
+  expect_bad_input(ehlsim("impact -q-out=x"), "-q-out=x" + kDashInCluster);
+  expect_bad_input(ehlsim("impact -q- --out x"), "-q-" + kDashInCluster);
   // A short option's '=' is part of its value for CLI11: -o=x made "=x".
   expect_bad_input(ehlsim("impact -o=x"),
                    "-o=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
   expect_bad_input(ehlsim("impact -qo=x"),
                    "-qo=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
+  // An option of the command before it was told only "not expected".
+  expect_bad_input(ehlsim("--quiet=1 impact --out x"),
+                   "--quiet=1: options follow the command: ehlsim impact --quiet=1 ...");
+  expect_bad_input(ehlsim("-o x rolling"), "-o: options follow the command: ehlsim rolling -o ...");
   // An option of ehlsim itself, not of the command: what CLI11 says of it.
   expect_bad_input(ehlsim("impact --version=1"),
                    "The following argument was not expected: --version=1");
