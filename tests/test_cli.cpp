@@ -304,6 +304,30 @@ TEST(Cli, ADirectoryNamedWithBytesThatAreNoTextIsWrittenAndShownSafely) {
   EXPECT_EQ(nl.out.find("n\nl"), std::string::npos) << nl.out;
 }
 
+TEST(Cli, ARunDirectoryWhoseNameBeginsWithABlankIsReadAndContinued) {
+  // libnetcdf drops the leading blanks and control characters of a file
+  // name: `spike ' r'` could not read the fields.nc that `impact --out ' r'`
+  // had written, and the checkpoint went to ./r.checkpoint.nc.part, after
+  // which the run failed ("cannot sync ' r.checkpoint.nc.part'").
+  TempDir dir;
+  const std::string in_dir = "cd " + quote(dir.path().string()) + " && ";
+  const std::string tiny = "--quiet --set grid.points=33 --set time.T_end=1 ";
+  const Result run =
+      ehlsim("impact " + tiny + "--set output.checkpoint_every=5 --out ' r'", in_dir);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(fs::exists(dir / " r" / "checkpoint.nc"));
+  EXPECT_FALSE(fs::exists(dir / "r.checkpoint.nc.part"));
+  const Result spike = ehlsim("spike ' r'", in_dir);
+  EXPECT_EQ(spike.exit_code, 0) << spike.err;
+  EXPECT_TRUE(fs::exists(dir / " r" / "spike_snapshots.csv"));
+  // A tab leads the name of the checkpoint to continue from.
+  fs::copy(dir / " r", dir / "\t r", fs::copy_options::recursive);
+  const Result resumed = ehlsim("impact " + tiny + "--set time.T_end=1.2 --restart " +
+                                    quote("\t r/checkpoint.nc") + " --out r2",
+                                in_dir);
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+}
+
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
   // (An --out below a file, once the example here, is bad input:
   // AnOutThatIsOrLiesInAFileIsBadInput.)

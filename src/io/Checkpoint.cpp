@@ -323,7 +323,7 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
 void write_checkpoint_file(const std::filesystem::path& path, const ImpactState& state,
                            const nlohmann::json& parameters) {
   NcFile nc(path, "write checkpoint", NcFile::Mode::Write);
-  nc.check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
+  nc.check(nc_create(netcdf_path(path).c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
   const auto text = [&](const char* name, const std::string& value) {
     nc.check(nc_put_att_text(nc.id, NC_GLOBAL, name, value.size(), value.c_str()), name);
   };
@@ -381,7 +381,7 @@ void write_checkpoint(const std::filesystem::path& path, const ImpactState& stat
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
   require_netcdf4_file(path, "read checkpoint");
   NcFile nc(path, "read checkpoint");
-  nc.check(nc_open(path.c_str(), NC_NOWRITE, &nc.id), "nc_open");
+  nc.check(nc_open(netcdf_path(path).c_str(), NC_NOWRITE, &nc.id), "nc_open");
   const CheckpointReader in{nc, path};
   if (!in.has_attribute("format_version", NC_INT) || !in.has_attribute("title", NC_CHAR) ||
       read_text_attribute(nc, "title") != kFormatName) {

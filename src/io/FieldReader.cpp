@@ -30,7 +30,7 @@ void FieldReader::check(int status, const char* what) const {
 
 FieldReader::FieldReader(const std::filesystem::path& path) : path_(path) {
   require_netcdf4_file(path, "read");
-  check(nc_open(path.c_str(), NC_NOWRITE, &ncid_), "nc_open");
+  check(nc_open(netcdf_path(path).c_str(), NC_NOWRITE, &ncid_), "nc_open");
   try {
     int dim_time = -1;
     int dim_x = -1;

@@ -153,7 +153,7 @@ void put_global_attributes(const NcFile& nc, const FieldLayout& layout,
 void create_field_file(const std::filesystem::path& path, const FieldLayout& layout,
                        const nlohmann::json& parameters) {
   NcFile nc(path, kAction, NcFile::Mode::Write);
-  nc.check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
+  nc.check(nc_create(netcdf_path(path).c_str(), NC_NETCDF4 | NC_CLOBBER, &nc.id), "nc_create");
   const FieldDimensions dims = define_coordinates(nc, layout);
   define_fields(nc, layout, dims);
   put_global_attributes(nc, layout, parameters);
@@ -179,7 +179,7 @@ struct SnapshotView {
 void append_snapshots(const std::filesystem::path& path, const FieldLayout& layout,
                       std::size_t first, const std::vector<SnapshotView>& snapshots) {
   NcFile nc(path, kAction, NcFile::Mode::Write);
-  nc.check(nc_open(path.c_str(), NC_WRITE, &nc.id), "nc_open");
+  nc.check(nc_open(netcdf_path(path).c_str(), NC_WRITE, &nc.id), "nc_open");
   const auto variable = [&](const char* name) {
     int var = -1;
     nc.check(nc_inq_varid(nc.id, name, &var), name);

@@ -15,6 +15,10 @@
 
 namespace ehlsim {
 
+std::string netcdf_path(const std::filesystem::path& path) {
+  return path.is_absolute() ? path.string() : "./" + path.string();
+}
+
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,
                   std::string_view what) {
   if (status != NC_NOERR) {

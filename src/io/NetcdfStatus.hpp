@@ -4,9 +4,16 @@
 #include <cstddef>
 #include <filesystem>
 #include <initializer_list>
+#include <string>
 #include <string_view>
 
 namespace ehlsim {
+
+/// The name to give libnetcdf for `path`: a relative one behind "./".
+/// libnetcdf parses a file name as a possible URL first and drops its
+/// leading blanks and control characters: ' run/fields.nc' was opened as
+/// 'run/fields.nc', which did not exist, and a checkpoint was written there.
+[[nodiscard]] std::string netcdf_path(const std::filesystem::path& path);
 
 /// Throws std::runtime_error "cannot <action> '<path>': <what>: <NetCDF's
 /// message>" unless `status` is NC_NOERR.
