@@ -182,8 +182,13 @@ std::vector<char*> c_strings(std::vector<std::string>& strings) {
   return out;
 }
 
-/// Starts `program args...` with stdout and stderr to `log`; throws on failure.
+/// Starts `program args...` with stdout and stderr to `log`, in a process
+/// group of its own (signal_group); throws on failure.
 pid_t spawn(const std::string& program, std::vector<std::string> args, const fs::path& log) {
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
@@ -195,8 +200,9 @@ pid_t spawn(const std::string& program, std::vector<std::string> args, const fs:
   std::vector<char*> envp = c_strings(env);
   pid_t pid = -1;
   const int status =
-      posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data());
+      posix_spawn(&pid, program.c_str(), &actions, &attributes, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
   if (status != 0) {
     throw std::runtime_error(fmt::format("cannot start '{}': {}", program, std::strerror(status)));
   }
@@ -238,12 +244,18 @@ std::string failure_reason(const fs::path& log, int exit_code) {
   return "its log " + log.string() + " says nothing";
 }
 
+/// Sends `signal` to the child `pid` and to what it started: a figure script's
+/// `sleep` outlived the study that was stopped during the script.  Each child
+/// leads a process group of its own (spawn), and the study passes a terminal's
+/// signals on.
+void signal_group(pid_t pid, int signal) { kill(-pid, signal); }
+
 /// Passes the signal the study received on to its running children, once each.
 void forward_signal(std::map<pid_t, Case*>& running) {
   const int signal = InterruptGuard::received();
   if (signal == 0) return;
   for (auto& [pid, c] : running) {
-    if (!c->signalled) kill(pid, signal);
+    if (!c->signalled) signal_group(pid, signal);
     c->signalled = true;
   }
 }
@@ -265,10 +277,10 @@ int wait_forwarding(pid_t pid) {
     if (ended < 0 && errno != EINTR)
       throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
     if (!signalled_at && InterruptGuard::received() != 0) {
-      kill(pid, InterruptGuard::received());
+      signal_group(pid, InterruptGuard::received());
       signalled_at = std::chrono::steady_clock::now();
     } else if (signalled_at && std::chrono::steady_clock::now() - *signalled_at > kSignalGrace) {
-      kill(pid, SIGKILL);
+      signal_group(pid, SIGKILL);
     }
     if (signalled_at) std::this_thread::sleep_for(kSignalPoll);
   }

@@ -549,7 +549,8 @@ TEST(Cli, FilesHdf5CrashesOnAreBadInputNotACrash) {
 
   const fs::path run = dir / "finished";
   fs::create_directories(run);
-  write_file(run / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  write_file(run / "run.json",
+             R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})");
   fs::copy_file(library_crash("fields-hdf5-H5HG_read-segv.nc"), run / "fields.nc");
   expect_library_crash(ehlsim("spike --quiet " + quote(run.string())),
                        "cannot read '" + (run / "fields.nc").string() + "': ");
@@ -602,8 +603,26 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                          "': not a complete ehlsim run directory (run.json is written last, when "
                          "the run has finished)");
   }
-  // A run.json without fields.nc: the NetCDF error, on one line.
+  // A run.json without the run's spike settings was analysed with the defaults.
   write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "cannot read '" + empty +
+                       "/run.json': no table parameters.spike (the run's spike settings, which "
+                       "every run of ehlsim impact records)");
+  write_file(dir / "empty" / "run.json", R"({"program": {"command": 5}})");
+  expect_bad_input(
+      ehlsim("spike --quiet " + quote(empty)),
+      "cannot read '" + empty + "/run.json': program.command is 5, not the name of a command");
+  // A link loop as RUN_DIR was named as the --out it defaults to.
+  fs::create_symlink("loop2", dir / "loop1");
+  fs::create_symlink("loop1", dir / "loop2");
+  expect_bad_input(
+      ehlsim("spike --quiet " + quote((dir / "loop1").string())),
+      "run directory '" + (dir / "loop1").string() + "' does not exist or is not a directory");
+  // A run.json without fields.nc: the NetCDF error, on one line.
+  const std::string kMinimalRun =
+      R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})";
+  write_file(dir / "empty" / "run.json", kMinimalRun);
   const Result r = ehlsim("spike --quiet " + quote(empty));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err.rfind("ehlsim: error: cannot read '" + empty + "/fields.nc'", 0), 0u) << r.err;
@@ -617,7 +636,7 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "spike.filter = \"x\": must be one of \"butterworth\", \"gaussian\", "
                    "\"none\" (parameters of '" +
                        empty + "/run.json')");
-  write_file(dir / "empty" / "run.json", R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})");
+  write_file(dir / "empty" / "run.json", kMinimalRun);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set spike.filter=y"),
                    "spike.filter = \"y\": must be one of \"butterworth\", \"gaussian\", "
                    "\"none\" (--set)");

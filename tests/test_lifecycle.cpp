@@ -406,6 +406,27 @@ class SmallTmpfs {
   bool mounted_ = false;
 };
 
+TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
+  // `ehlsim spike DIR` moved a tmpfs mounted at DIR/data along with the
+  // earlier directory, then removed that and the files on the tmpfs, exit 0.
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3").exit_code, 0);
+  const SmallTmpfs data(run / "data");
+  if (!data.mounted()) GTEST_SKIP() << "mount -t tmpfs is not permitted here";
+  std::ofstream(run / "data" / "notes.txt") << "precious\n";
+  const std::set<std::string> before = names_in(run);
+  const Result r = ehlsim("spike " + quote(run.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err,
+            "ehlsim: error: --out '" + run.string() + "' holds '" + (run / "data").string() +
+                "', where a file system is mounted: ehlsim replaces the directory as a "
+                "whole and cannot carry a mount over; unmount it, or choose another --out\n");
+  EXPECT_EQ(read_file(run / "data" / "notes.txt"), "precious\n");
+  EXPECT_EQ(names_in(run), before);
+  EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});  // no staging left
+}
+
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {
   TempDir work;
   const SmallTmpfs disk(work / "disk");
@@ -1214,6 +1235,31 @@ TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   EXPECT_FALSE(fs::exists(study / "figures"));
 }
 
+TEST(Lifecycle, WhatTheFigureScriptStartedEndsWithTheStudy) {
+  // The study signalled the script's process only: a `sleep` it had started
+  // ran on after the study had ended.
+  TempDir work;
+  const fs::path study = work / "study";
+  const fs::path script = work / "figures.sh";
+  const fs::path started = work / "started";
+  std::ofstream(script) << "sleep 60 & echo $! > " << quote(started.string()) << ".part\n"
+                        << "mv " << quote(started.string()) << ".part " << quote(started.string())
+                        << "\n"
+                        << "wait\n";
+  const Child c = start(tiny_study_with_script(study, script), work / "study");
+  ASSERT_TRUE(wait_for_path(started));
+  const std::string sleeper = "/proc/" + std::to_string(std::stoi(read_file(started)));
+  ASSERT_TRUE(fs::exists(sleeper));
+  kill(c.pid, SIGTERM);
+  const Result r = result_of(c);
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  // Ended by the signal, and reaped by init: gone within moments.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (fs::exists(sleeper) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_FALSE(fs::exists(sleeper)) << "the figure script's sleep runs on";
+}
+
 TEST(Lifecycle, AFigureScriptsFailureIsReportedOnOneCleanLine) {
   TempDir work;
   const fs::path study = work / "study";
@@ -1454,7 +1500,8 @@ TEST(Lifecycle, ASignalWhileHdf5HangsOnAFileEndsTheCommandAndItsReader) {
   const fs::path out = work / "out";
   const fs::path run = work / "run";
   fs::create_directories(run);
-  std::ofstream(run / "run.json") << R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}}})";
+  std::ofstream(run / "run.json")
+      << R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})";
   fs::copy_file(library_crash("fields-hdf5-H5HG-heap-loop.nc"), run / "fields.nc");
   const std::vector<std::tuple<std::vector<std::string>, int, std::string>> cases = {
       {{"impact", "--quiet", "--set", "grid.points=9", "--set", "solver.coarsest_points=5",

@@ -49,18 +49,23 @@ namespace {
 
 constexpr std::string_view kSpikeSection = "spike.";
 
-/// The run's spike settings as overrides.
-std::vector<std::string> recorded_spike_settings(const nlohmann::json& run) {
+/// The run's spike settings as overrides.  Not the defaults where run.json
+/// has none: every impact run records its own, and an analysis with other
+/// settings than the run's reported them as the run's.
+std::vector<std::string> recorded_spike_settings(const nlohmann::json& run,
+                                                 const std::filesystem::path& run_file) {
+  const auto parameters = run.find("parameters");
+  if (parameters == run.end() || !parameters->is_object() || !parameters->contains("spike") ||
+      !parameters->at("spike").is_object()) {
+    throw ConfigError(fmt::format(
+        "cannot read '{}': no table parameters.spike (the run's spike settings, which every run "
+        "of ehlsim impact records)",
+        run_file.string()));
+  }
   std::vector<std::string> out;
-  const nlohmann::json* settings = nullptr;
-  if (run.contains("parameters") && run["parameters"].contains("spike")) {
-    settings = &run["parameters"]["spike"];
-  }
-  if (settings) {
-    for (auto it = settings->begin(); it != settings->end(); ++it) {
-      out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
-    }
-  }
+  const nlohmann::json& settings = parameters->at("spike");
+  for (auto it = settings.begin(); it != settings.end(); ++it)
+    out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
   return out;
 }
 
@@ -69,7 +74,7 @@ std::vector<std::string> recorded_spike_settings(const nlohmann::json& run) {
 std::vector<std::string> spike_overrides(const nlohmann::json& run,
                                          const std::vector<std::string>& extra,
                                          const std::filesystem::path& run_file) {
-  std::vector<std::string> out = recorded_spike_settings(run);
+  std::vector<std::string> out = recorded_spike_settings(run, run_file);
   (void)load_config(std::nullopt, out, fmt::format("parameters of '{}'", run_file.string()));
   for (const std::string& assignment : extra) {
     if (assignment.rfind(kSpikeSection, 0) != 0) {
@@ -90,7 +95,11 @@ void check_impact_run(const nlohmann::json& run, const std::filesystem::path& pa
   const auto program = run.find("program");
   if (program == run.end() || !program->is_object()) return;
   const auto command = program->find("command");
-  if (command == program->end() || !command->is_string() || *command == "impact") return;
+  if (command != program->end() && !command->is_string())
+    throw ConfigError(
+        fmt::format("cannot read '{}': program.command is {}, not the name of a command",
+                    path.string(), echo_input(command->dump())));
+  if (command == program->end() || *command == "impact") return;
   throw ConfigError(fmt::format(
       "cannot analyse '{}': a run of `ehlsim {}`; ehlsim spike analyses runs of `ehlsim impact`",
       path.string(), echo_input(command->get<std::string>())));
@@ -276,9 +285,11 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
   };
   // A file given as RUN_DIR, or none (`ehlsim spike "$UNSET"`), is named as
   // such, not as the --out it defaults to.
+  // A link loop as RUN_DIR was named as the --out it defaults to.
   std::error_code ec;
-  if (run_dir.empty() ||
-      (std::filesystem::exists(run_dir, ec) && !std::filesystem::is_directory(run_dir, ec)))
+  const bool exists = std::filesystem::exists(run_dir, ec);
+  if (run_dir.empty() || ec == std::errc::too_many_symbolic_link_levels ||
+      (exists && !std::filesystem::is_directory(run_dir, ec)))
     refuse_run_dir();
   // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).

@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -230,13 +231,54 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
   sync_path(to);
 }
 
+/// Whether the directory `path` is where another file system, or a bind
+/// mount of this one (the same st_dev: only statx tells), is mounted.
+bool is_mount_point(const fs::path& path, dev_t device_above) {
+  struct statx st {};
+  if (statx(AT_FDCWD, path.c_str(), AT_SYMLINK_NOFOLLOW, STATX_BASIC_STATS, &st) != 0) return false;
+  if (makedev(st.stx_dev_major, st.stx_dev_minor) != device_above) return true;
+  return (st.stx_attributes_mask & STATX_ATTR_MOUNT_ROOT) != 0 &&
+         (st.stx_attributes & STATX_ATTR_MOUNT_ROOT) != 0;
+}
+
+/// The first directory below `dir` where a file system is mounted, or empty.
+/// Replacing `dir` would move the mount along with the earlier directory,
+/// and removing that removed the mounted files: `ehlsim spike` emptied a
+/// tmpfs mounted at DIR/data (and left its copy in DIR).
+fs::path first_mount_point_below(const fs::path& dir) {
+  struct stat top {};
+  if (::stat(dir.c_str(), &top) != 0) return {};
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (it->is_directory(ec) && !it->is_symlink(ec) && is_mount_point(it->path(), top.st_dev))
+      return it->path();
+  }
+  return {};
+}
+
+/// The message of a mount point below the directory `shown` a run replaces.
+std::string mount_point_text(const fs::path& shown, const fs::path& mount) {
+  return fmt::format(
+      "--out '{}' holds '{}', where a file system is mounted: ehlsim replaces the "
+      "directory as a whole and cannot carry a mount over; unmount it, or choose "
+      "another --out",
+      shown.string(), mount.string());
+}
+
+/// Refuses (bad input) a run into `resolved`, shown as `shown`, that holds a mount point.
+void refuse_mount_point_below(const fs::path& resolved, const fs::path& shown) {
+  if (const fs::path mount = first_mount_point_below(resolved); !mount.empty())
+    throw ConfigError(mount_point_text(shown, shown / mount.lexically_relative(resolved)), "--out");
+}
+
 /// Every entry below `dir` (links not followed) but the `skipped` names in
 /// `dir` itself, parents before their children; none when `dir` is missing.
 std::vector<CarriedEntry> entries_below(const fs::path& dir,
                                         const std::vector<std::string>& skipped) {
   std::vector<CarriedEntry> entries;
-  std::error_code ec;
-  if (!fs::exists(fs::symlink_status(dir, ec))) return entries;
+  struct stat top {};
+  if (::stat(dir.c_str(), &top) != 0) return entries;
   for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator();
        ++it) {
     const std::string name = it->path().filename().string();
@@ -249,6 +291,8 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
       throw std::runtime_error(
           fmt::format("cannot read '{}': {}", it->path().string(), system_message(errno)));
     }
+    if (S_ISDIR(status.st_mode) && is_mount_point(it->path(), top.st_dev))
+      throw std::runtime_error(mount_point_text(dir, it->path()));
     entries.push_back({it->path().lexically_relative(dir), status.st_dev, status.st_ino});
   }
   std::sort(entries.begin(), entries.end(),
@@ -561,6 +605,7 @@ RunDirectory::RunDirectory(const fs::path& target)
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);
   check_not_holding_working_directory(resolved_, target_);
+  refuse_mount_point_below(resolved_, target_);
   remove_debris(resolved_);
   entries_at_start_ = entries_below(resolved_, {});
   fs::create_directory(staging_);
@@ -578,6 +623,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
   std::error_code ec;
   if (fs::exists(fs::status(refuse_non_directory(target_), ec))) check_writable(target_);
   check_not_holding_working_directory(resolved_, target_);
+  refuse_mount_point_below(resolved_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }
