@@ -420,11 +420,26 @@ TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err,
             "ehlsim: error: --out '" + run.string() + "' holds '" + (run / "data").string() +
-                "', where a file system is mounted: ehlsim replaces the directory as a "
-                "whole and cannot carry a mount over; unmount it, or choose another --out\n");
+                "', a mount point: ehlsim replaces the directory as a whole and cannot carry "
+                "a mount over; unmount it, or choose another --out\n");
   EXPECT_EQ(read_file(run / "data" / "notes.txt"), "precious\n");
   EXPECT_EQ(names_in(run), before);
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});  // no staging left
+  // A file bind-mounted into DIR (the same file system: only statx tells).
+  const fs::path other = work / "other";
+  ASSERT_EQ(run_into(other, "--set time.T_end=0.3").exit_code, 0);
+  std::ofstream(work / "mine.txt") << "mine\n";
+  std::ofstream(other / "bound.txt") << "";
+  ASSERT_EQ(
+      mount((work / "mine.txt").c_str(), (other / "bound.txt").c_str(), nullptr, MS_BIND, nullptr),
+      0);
+  const Result bound = ehlsim("spike " + quote(other.string()) + " --out " + quote(other.string()));
+  umount((other / "bound.txt").c_str());
+  EXPECT_EQ(bound.exit_code, 2) << bound.err;
+  EXPECT_NE(bound.err.find("holds '" + (other / "bound.txt").string() + "', a mount point"),
+            std::string::npos)
+      << bound.err;
+  EXPECT_EQ(read_file(work / "mine.txt"), "mine\n");
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

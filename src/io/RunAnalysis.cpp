@@ -283,9 +283,8 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
     throw ConfigError(
         fmt::format("run directory '{}' does not exist or is not a directory", run_dir.string()));
   };
-  // A file given as RUN_DIR, or none (`ehlsim spike "$UNSET"`), is named as
-  // such, not as the --out it defaults to.
-  // A link loop as RUN_DIR was named as the --out it defaults to.
+  // A file or a link loop given as RUN_DIR, or none (`ehlsim spike "$UNSET"`),
+  // is named as such, not as the --out it defaults to.
   std::error_code ec;
   const bool exists = std::filesystem::exists(run_dir, ec);
   if (run_dir.empty() || ec == std::errc::too_many_symbolic_link_levels ||

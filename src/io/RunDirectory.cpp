@@ -231,8 +231,8 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
   sync_path(to);
 }
 
-/// Whether the directory `path` is where another file system, or a bind
-/// mount of this one (the same st_dev: only statx tells), is mounted.
+/// Whether `path` (a directory, or a file) is where another file system, or a
+/// bind mount of this one (the same st_dev: only statx tells), is mounted.
 bool is_mount_point(const fs::path& path, dev_t device_above) {
   struct statx st {};
   if (statx(AT_FDCWD, path.c_str(), AT_SYMLINK_NOFOLLOW, STATX_BASIC_STATS, &st) != 0) return false;
@@ -241,7 +241,7 @@ bool is_mount_point(const fs::path& path, dev_t device_above) {
          (st.stx_attributes & STATX_ATTR_MOUNT_ROOT) != 0;
 }
 
-/// The first directory below `dir` where a file system is mounted, or empty.
+/// The first entry below `dir` where a file system or a file is mounted, or empty.
 /// Replacing `dir` would move the mount along with the earlier directory,
 /// and removing that removed the mounted files: `ehlsim spike` emptied a
 /// tmpfs mounted at DIR/data (and left its copy in DIR).
@@ -251,8 +251,7 @@ fs::path first_mount_point_below(const fs::path& dir) {
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(dir, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (it->is_directory(ec) && !it->is_symlink(ec) && is_mount_point(it->path(), top.st_dev))
-      return it->path();
+    if (!it->is_symlink(ec) && is_mount_point(it->path(), top.st_dev)) return it->path();
   }
   return {};
 }
@@ -260,7 +259,7 @@ fs::path first_mount_point_below(const fs::path& dir) {
 /// The message of a mount point below the directory `shown` a run replaces.
 std::string mount_point_text(const fs::path& shown, const fs::path& mount) {
   return fmt::format(
-      "--out '{}' holds '{}', where a file system is mounted: ehlsim replaces the "
+      "--out '{}' holds '{}', a mount point: ehlsim replaces the "
       "directory as a whole and cannot carry a mount over; unmount it, or choose "
       "another --out",
       shown.string(), mount.string());
@@ -291,7 +290,7 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
       throw std::runtime_error(
           fmt::format("cannot read '{}': {}", it->path().string(), system_message(errno)));
     }
-    if (S_ISDIR(status.st_mode) && is_mount_point(it->path(), top.st_dev))
+    if (!S_ISLNK(status.st_mode) && is_mount_point(it->path(), top.st_dev))
       throw std::runtime_error(mount_point_text(dir, it->path()));
     entries.push_back({it->path().lexically_relative(dir), status.st_dev, status.st_ino});
   }
