@@ -207,13 +207,29 @@ def rebound_rows(case):
     return s["T"] >= case["T_max_deformation"]
 
 
+def grid_points(case):
+    return case["run"]["parameters"]["grid"]["points"]
+
+
+def note_no_spike(ax, case):
+    """Says on an empty plot why it is empty: on a coarse grid no snapshot of the rebound
+    has a spike the analysis finds (33^2: none; it needs a finer grid)."""
+    n = grid_points(case)
+    ax.text(0.5, 0.5, f"M = {case['M']}: no spike found in the rebound on {n}^2 points\n"
+            "(too coarse to resolve it: use a finer --grid)",
+            transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.35")
+
+
 def fig5(cases, dry, out):
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     rows = []
     for case in cases:
         s = case["spike"]
         sel = rebound_rows(case)
-        ax.plot(s["T"][sel], s["R_s"][sel], lw=1.2, label=f"M = {case['M']}")
+        found = np.isfinite(s["R_s"][sel])
+        # A curve of a point or two is no line: markers show it.
+        ax.plot(s["T"][sel], s["R_s"][sel], lw=1.2, marker="o" if found.sum() < 3 else None,
+                ms=3, label=f"M = {case['M']}" + ("" if found.any() else " (no spike found)"))
         rows += [(case["M"], float(t), float(r), float(x), float(a))
                  for t, r, x, a in zip(s["T"][sel], s["R_s"][sel], s["X_s"][sel], s["A_dry"][sel])]
     ax.plot(dry["T"], dry["A_dry"], "k--", lw=1.0, label="dry Hertz A(T)")
@@ -237,6 +253,8 @@ def fig6(case, out):
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(s["T"][sel], s["V_s"][sel], "-o", ms=2.5, lw=1.0)
     ax.axhline(0, color="0.6", lw=0.6)
+    if not np.isfinite(s["V_s"][sel]).any():
+        note_no_spike(ax, case)
     ax.set_xlabel("T")
     ax.set_ylabel("V_s = dR_s/dT")
     ax.set_title(f"Spike velocity, M = {case['M']}, L = 10 (finite differences, no filtering)")
