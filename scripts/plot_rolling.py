@@ -32,6 +32,18 @@ def read_csv(path):
     return {k: [float(r[k]) for r in rows] for k in rows[0]}
 
 
+def profile(ax, line, coordinate, title, xlim, Hc):
+    """P (left axis) and H (right axis) along one line, told apart by colour and legend."""
+    ax.plot(line[coordinate], line["P"], "C0", label="P (left)")
+    ax.set(xlabel=coordinate, title=title, xlim=xlim)
+    ax.set_ylabel("P", color="C0")
+    twin = ax.twinx()
+    twin.plot(line[coordinate], line["H"], "C1", label="H (right)")
+    twin.set(ylim=(0, 4 * Hc))
+    twin.set_ylabel("H", color="C1")
+    ax.legend(handles=ax.get_lines() + twin.get_lines(), loc="upper left", fontsize=8)
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("run_dir")
@@ -58,18 +70,9 @@ def main():
     axes[0, 1].set(title="film thickness H (contours)", xlabel="X", ylabel="Y", **window)
     for ax in axes[0]:
         ax.set_aspect("equal")
-    ax = axes[1, 0]
-    ax.plot(along_x["X"], along_x["P"], label="P")
-    ax.set(xlabel="X", ylabel="P", title="along Y = 0", xlim=(-2.5, 1.5))
-    twin = ax.twinx()
-    twin.plot(along_x["X"], along_x["H"], "C1", label="H")
-    twin.set(ylabel="H", ylim=(0, 4 * r["Hc"]))
-    ax = axes[1, 1]
-    ax.plot(along_y["Y"], along_y["P"], label="P")
-    ax.set(xlabel="Y", ylabel="P", title=f"across, at X = X(Hm) = {r['X_Hm']:.3g}", xlim=(-1.5, 1.5))
-    twin = ax.twinx()
-    twin.plot(along_y["Y"], along_y["H"], "C1", label="H")
-    twin.set(ylabel="H", ylim=(0, 4 * r["Hc"]))
+    profile(axes[1, 0], along_x, "X", "along Y = 0", (-2.5, 1.5), r["Hc"])
+    profile(axes[1, 1], along_y, "Y", f"across, at X = X(Hm) = {r['X_Hm']:.3g}", (-1.5, 1.5),
+            r["Hc"])
     fig.suptitle(f"ehlsim rolling: M = {case['M']:.4g}, L = {case['L']:.4g}, D = {case['D']:.3g}; "
                  f"Hc = {r['Hc']:.4g} ({r['Hc_moes']:.3g} Moes, NVM {r['Hc_moes_nvm']:.3g}), "
                  f"Hm = {r['Hm']:.4g}")
