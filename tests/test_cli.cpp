@@ -588,6 +588,11 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "cannot read '" + empty +
                        "/run.json': not a complete ehlsim run directory "
                        "(run.json is written last, when the run has finished)");
+  // A directory beside which no lock can be made: exit 1, "cannot create
+  // lock file '/proc/.PID.lock'", for what is no run directory.
+  expect_bad_input(ehlsim("spike --quiet /proc/self"),
+                   "cannot read '/proc/self/run.json': not a complete ehlsim run directory "
+                   "(run.json is written last, when the run has finished)");
   // A run.json that is no regular file: a FIFO (opening it waited for ever
   // for a writer) and a directory (the parser's error named no file).
   for (const char* kind : {"fifo", "directory"}) {

@@ -276,6 +276,26 @@ void check_spike_out(const std::filesystem::path& run_dir, const std::filesystem
 
 }  // namespace
 
+namespace {
+/// OUT, locked for the analysis.  Where it cannot be (`ehlsim spike
+/// /proc/self`: no lock file can be made beside it, exit 1) and RUN_DIR holds
+/// no run.json, the bad input is said instead: no run directory was given.
+std::unique_ptr<RunDirectory> lock_spike_out(const std::filesystem::path& run_dir,
+                                             const std::filesystem::path& out_dir) {
+  try {
+    return std::make_unique<RunDirectory>(
+        out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::runtime_error&) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(run_dir / RunOutput::kRunFile, ec))
+      (void)read_run_json(run_dir / RunOutput::kRunFile);  // throws its ConfigError
+    throw;
+  }
+}
+}  // namespace
+
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
                                         const std::filesystem::path& out_dir,
                                         const std::vector<std::string>& overrides) {
@@ -293,11 +313,10 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
   // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).
   check_spike_out(run_dir, out_dir);
-  RunDirectory out(
-      out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
+  const std::unique_ptr<RunDirectory> out = lock_spike_out(run_dir, out_dir);
   if (!std::filesystem::is_directory(run_dir, ec)) refuse_run_dir();
-  RunAnalysisReport report = write_analysis(run_dir, out.staging(), overrides);
-  out.publish();
+  RunAnalysisReport report = write_analysis(run_dir, out->staging(), overrides);
+  out->publish();
   for (std::filesystem::path& file : report.files) file = out_dir / file.filename();
   return report;
 }
