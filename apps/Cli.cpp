@@ -177,6 +177,22 @@ std::string command_after(const CLI::App& app, std::string_view first, int argc,
         return command->get_option_no_throw(name) != nullptr ? command->get_name() : "";
   return {};
 }
+
+/// "--version" after the command: an option of ehlsim itself, which CLI11
+/// said only it did not expect.
+std::string ehlsim_option_after_command(const CLI::App& app, std::string_view arg, int argc,
+                                        char** argv) {
+  if (!arg.starts_with("--") || argc < 2) return {};
+  const std::string name(arg.substr(0, arg.find('=')));
+  const std::string_view first = argv[1];
+  for (const CLI::App* command :
+       app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; })) {
+    if (command->get_option_no_throw(name) == nullptr && app.get_option_no_throw(name) != nullptr)
+      return fmt::format("{}: an option of ehlsim itself, not of {}: ehlsim {}", printable(arg),
+                         first, name);
+  }
+  return {};
+}
 }  // namespace
 
 std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
@@ -188,6 +204,9 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];
     if (arg == "--") break;  // positional arguments from here on
+    if (std::string misplaced = ehlsim_option_after_command(app, arg, argc, argv);
+        !misplaced.empty())
+      return misplaced;
     if (arg.size() > 2 && arg[0] == '-' && arg[1] != '-' &&
         dash_in_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv))
       return fmt::format(

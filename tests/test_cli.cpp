@@ -191,9 +191,11 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("--quiet=1 impact --out x"),
                    "--quiet=1: options follow the command: ehlsim impact --quiet=1 ...");
   expect_bad_input(ehlsim("-o x rolling"), "-o: options follow the command: ehlsim rolling -o ...");
-  // An option of ehlsim itself, not of the command: what CLI11 says of it.
+  // An option of ehlsim itself, not of the command (CLI11: "not expected").
   expect_bad_input(ehlsim("impact --version=1"),
-                   "The following argument was not expected: --version=1");
+                   "--version=1: an option of ehlsim itself, not of impact: ehlsim --version");
+  expect_bad_input(ehlsim("rolling --version"),
+                   "--version: an option of ehlsim itself, not of rolling: ehlsim --version");
   // After "--" everything is positional: a config file named so.
   expect_bad_input(ehlsim("impact --out x -- --quiet=1"),
                    "cannot read config file '--quiet=1': No such file or directory");
