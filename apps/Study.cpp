@@ -503,7 +503,7 @@ int draw_figures(const std::string& python, const fs::path& script, const fs::pa
   for (const fs::directory_entry& entry : fs::directory_iterator(out, ec)) {
     // A killed study's (the study lock is ours).
     if (entry.path().filename().string().starts_with(staging_prefix))
-      fs::remove_all(entry.path(), ec);
+      ehlsim::remove_within_mount(entry.path());
   }
   const fs::path staging = out / fmt::format("{}{}", staging_prefix, getpid());
   int code = cli::kExitFailure;

@@ -440,6 +440,15 @@ TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
             std::string::npos)
       << bound.err;
   EXPECT_EQ(read_file(work / "mine.txt"), "mine\n");
+  // The next run removes a killed run's staging directory (pid 999999 runs
+  // no more), which emptied a tmpfs mounted in it: what is mounted stays.
+  const fs::path debris = work / ".third.part-999999";
+  const SmallTmpfs in_debris(debris / "data");
+  std::ofstream(debris / "data" / "notes.txt") << "precious\n";
+  std::ofstream(debris / "fields.nc.part") << "debris";
+  ASSERT_EQ(run_into(work / "third", "--set time.T_end=0.3").exit_code, 0);
+  EXPECT_EQ(read_file(debris / "data" / "notes.txt"), "precious\n");
+  EXPECT_FALSE(fs::exists(debris / "fields.nc.part"));  // the rest of the debris went
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

@@ -216,7 +216,7 @@ void remove_debris(const fs::path& target) {
   for (const fs::directory_entry& entry : fs::directory_iterator(target.parent_path(), ec)) {
     const std::string name = entry.path().filename().string();
     if (left_by_ended_process(name, staging) || left_by_ended_process(name, old))
-      fs::remove_all(entry.path(), ec);
+      remove_within_mount(entry.path());
   }
 }
 
@@ -241,6 +241,47 @@ bool is_mount_point(const fs::path& path, dev_t device_above) {
          (st.stx_attributes & STATX_ATTR_MOUNT_ROOT) != 0;
 }
 
+/// The device of the directory that holds `path`.
+dev_t device_of_parent(const fs::path& path) {
+  struct stat parent {};
+  const fs::path above = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  return ::stat(above.c_str(), &parent) == 0 ? parent.st_dev : 0;
+}
+
+/// remove_within_mount below `dir`, a directory on the device `device`.
+void remove_entries_within_mount(const fs::path& dir, dev_t device) noexcept {
+  std::error_code ec;
+  std::vector<fs::path> entries;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator();
+       it.increment(ec))
+    entries.push_back(it->path());
+  for (const fs::path& entry : entries) {
+    struct stat st {};
+    if (::lstat(entry.c_str(), &st) != 0) continue;
+    if (!S_ISLNK(st.st_mode) && is_mount_point(entry, device)) continue;  // and its parents stay
+    if (S_ISDIR(st.st_mode)) {
+      remove_entries_within_mount(entry, device);
+      ::rmdir(entry.c_str());
+    } else {
+      ::unlink(entry.c_str());
+    }
+  }
+}
+}  // namespace
+
+void remove_within_mount(const fs::path& path) noexcept {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return;
+  if (S_ISLNK(st.st_mode) || !S_ISDIR(st.st_mode)) {
+    if (!is_mount_point(path, device_of_parent(path))) ::unlink(path.c_str());
+    return;
+  }
+  if (is_mount_point(path, device_of_parent(path))) return;
+  remove_entries_within_mount(path, st.st_dev);
+  ::rmdir(path.c_str());
+}
+
+namespace {
 /// The first entry below `dir` where a file system or a file is mounted, or empty.
 /// Replacing `dir` would move the mount along with the earlier directory,
 /// and removing that removed the mounted files: `ehlsim spike` emptied a
@@ -430,7 +471,7 @@ fs::path put_in_place(const fs::path& staging, const fs::path& target, bool targ
 void settle_replacement(const fs::path& target, const fs::path& old) {
   sync_path(target.parent_path());
   std::error_code ec;  // leftovers are the next writer's debris, not this one's failure
-  if (!old.empty()) fs::remove_all(old, ec);
+  if (!old.empty()) remove_within_mount(old);
 }
 
 /// A directory whose mode denies its owner's writes is one the user has
@@ -630,7 +671,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
 RunDirectory::~RunDirectory() {
   if (published_) return;
   std::error_code ec;  // nothing to report from a destructor
-  fs::remove_all(staging_, ec);
+  remove_within_mount(staging_);
 }
 
 fs::path RunDirectory::checkpoint() const {

@@ -127,6 +127,12 @@ class RunDirectory {
   void check_target_unchanged() const;
 };
 
+/// Removes `path` and what lies below it, but nothing where a file system
+/// (or a bind mount) is mounted, nor the directories that lead there: a
+/// tmpfs mounted in a killed run's leftover staging directory was emptied by
+/// the next run.  Errors are ignored (what stays is a later run's debris).
+void remove_within_mount(const std::filesystem::path& path) noexcept;
+
 /// Puts the complete directory `staging` in the place of `target` (missing
 /// or a directory) in one atomic step, as publish() does, and removes what
 /// `target` held: a reader sees the earlier contents or the new ones.
