@@ -22,10 +22,12 @@
 #include <sched.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -182,13 +184,8 @@ std::vector<char*> c_strings(std::vector<std::string>& strings) {
   return out;
 }
 
-/// Starts `program args...` with stdout and stderr to `log`, in a process
-/// group of its own (signal_group); throws on failure.
+/// Starts `program args...` with stdout and stderr to `log`; throws on failure.
 pid_t spawn(const std::string& program, std::vector<std::string> args, const fs::path& log) {
-  posix_spawnattr_t attributes;
-  posix_spawnattr_init(&attributes);
-  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
-  posix_spawnattr_setpgroup(&attributes, 0);
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
@@ -200,12 +197,60 @@ pid_t spawn(const std::string& program, std::vector<std::string> args, const fs:
   std::vector<char*> envp = c_strings(env);
   pid_t pid = -1;
   const int status =
-      posix_spawn(&pid, program.c_str(), &actions, &attributes, argv.data(), envp.data());
+      posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
-  posix_spawnattr_destroy(&attributes);
   if (status != 0) {
     throw std::runtime_error(fmt::format("cannot start '{}': {}", program, std::strerror(status)));
   }
+  return pid;
+}
+
+/// In the child of spawn_group_leader: the process group, the death signal,
+/// the log and the program; only system calls (the study may have threads).
+/// Writes errno to `report` (close-on-exec) when the program cannot start.
+[[noreturn]] void become_group_leader(const char* program, char** argv, char** envp,
+                                      const char* log, pid_t study, int report) {
+  setpgid(0, 0);
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (getppid() != study) _exit(cli::kExitFailure);  // the study ended before prctl
+  const int in = open("/dev/null", O_RDONLY);
+  const int out = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (in >= 0 && out >= 0 && dup2(in, STDIN_FILENO) >= 0 && dup2(out, STDOUT_FILENO) >= 0 &&
+      dup2(out, STDERR_FILENO) >= 0)
+    execve(program, argv, envp);
+  const int error = errno;
+  (void)!write(report, &error, sizeof error);
+  _exit(cli::kExitFailure);
+}
+
+/// spawn for the figure script, as the leader of a process group of its own:
+/// the study signals the group, so that what the script started ends with it
+/// (a `sleep` of the script outlived a study stopped during the script), and
+/// the script gets SIGKILL when the study is killed (PR_SET_PDEATHSIG), which
+/// being in another group than the study's no longer does for it.
+pid_t spawn_group_leader(const std::string& program, std::vector<std::string> args,
+                         const fs::path& log) {
+  std::vector<std::string> env = child_environment();
+  std::vector<char*> argv = c_strings(args);
+  std::vector<char*> envp = c_strings(env);
+  std::array<int, 2> report{};
+  if (pipe2(report.data(), O_CLOEXEC) != 0)
+    throw std::runtime_error(
+        fmt::format("cannot start '{}': pipe: {}", program, std::strerror(errno)));
+  const pid_t study = getpid();
+  const pid_t pid = fork();
+  if (pid == 0)
+    become_group_leader(program.c_str(), argv.data(), envp.data(), log.c_str(), study, report[1]);
+  close(report[1]);
+  int error = 0;
+  const ssize_t got = pid < 0 ? 0 : read(report[0], &error, sizeof error);  // 0: exec'd
+  close(report[0]);
+  if (pid < 0 || got == static_cast<ssize_t>(sizeof error)) {
+    if (pid > 0) waitpid(pid, nullptr, 0);
+    throw std::runtime_error(
+        fmt::format("cannot start '{}': {}", program, std::strerror(pid < 0 ? errno : error)));
+  }
+  setpgid(pid, pid);  // also here, before the study may signal the group (EACCES once exec'd)
   return pid;
 }
 
@@ -244,18 +289,12 @@ std::string failure_reason(const fs::path& log, int exit_code) {
   return "its log " + log.string() + " says nothing";
 }
 
-/// Sends `signal` to the child `pid` and to what it started: a figure script's
-/// `sleep` outlived the study that was stopped during the script.  Each child
-/// leads a process group of its own (spawn), and the study passes a terminal's
-/// signals on.
-void signal_group(pid_t pid, int signal) { kill(-pid, signal); }
-
 /// Passes the signal the study received on to its running children, once each.
 void forward_signal(std::map<pid_t, Case*>& running) {
   const int signal = InterruptGuard::received();
   if (signal == 0) return;
   for (auto& [pid, c] : running) {
-    if (!c->signalled) signal_group(pid, signal);
+    if (!c->signalled) kill(pid, signal);
     c->signalled = true;
   }
 }
@@ -266,21 +305,27 @@ void forward_signal(std::map<pid_t, Case*>& running) {
 constexpr auto kSignalGrace = std::chrono::seconds(5);
 constexpr auto kSignalPoll = std::chrono::milliseconds(50);
 
-/// Waits for `pid`, passing a signal the study receives on to it, and
-/// killing it kSignalGrace after that if it has not ended.
-int wait_forwarding(pid_t pid) {
+/// Waits for the group leader `pid` (spawn_group_leader), passing a signal
+/// the study receives on to its group and killing the group kSignalGrace after
+/// that if the leader has not ended; when it ends, what it left running in
+/// its group is killed (a background child of the script wrote into the
+/// figures' staging directory after the study had ended).
+int wait_for_group(pid_t pid) {
   int status = 0;
   std::optional<std::chrono::steady_clock::time_point> signalled_at;
   for (;;) {
     const pid_t ended = waitpid(pid, &status, signalled_at ? WNOHANG : 0);
-    if (ended == pid) return exit_code_of(status);
+    if (ended == pid) {
+      kill(-pid, SIGKILL);
+      return exit_code_of(status);
+    }
     if (ended < 0 && errno != EINTR)
       throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
     if (!signalled_at && InterruptGuard::received() != 0) {
-      signal_group(pid, InterruptGuard::received());
+      kill(-pid, InterruptGuard::received());
       signalled_at = std::chrono::steady_clock::now();
     } else if (signalled_at && std::chrono::steady_clock::now() - *signalled_at > kSignalGrace) {
-      signal_group(pid, SIGKILL);
+      kill(-pid, SIGKILL);
     }
     if (signalled_at) std::this_thread::sleep_for(kSignalPoll);
   }
@@ -509,8 +554,9 @@ int draw_figures(const std::string& python, const fs::path& script, const fs::pa
   int code = cli::kExitFailure;
   try {
     fs::create_directory(staging);
-    const pid_t pid = spawn(python, {python, script.string(), out.string(), staging.string()}, log);
-    code = wait_forwarding(pid);
+    const pid_t pid =
+        spawn_group_leader(python, {python, script.string(), out.string(), staging.string()}, log);
+    code = wait_for_group(pid);
     // The script's last act is summary.json: a script that exits 0 without
     // it drew nothing, and must not replace the earlier figures (--python
     // /bin/true left figures/ empty, with exit 0).

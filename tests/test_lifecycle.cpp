@@ -100,11 +100,13 @@ class CommandLine {
 
 /// `stop_at`: the test hook EHLSIM_TEST_STOP_AT (docs/usage.md, "Test hooks").
 Child start(const std::vector<std::string>& args, const fs::path& capture,
-            const std::string& stop_at = "", const Environment& environment = {}) {
+            const std::string& stop_at = "", const Environment& environment = {},
+            bool own_process_group = false) {
   Child c{-1, capture.string() + ".out", capture.string() + ".err"};
   const CommandLine command(args);
   c.pid = fork();
   if (c.pid == 0) {
+    if (own_process_group) setpgid(0, 0);  // as a shell starts a job
     const int out = open(c.out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const int err = open(c.err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(out, STDOUT_FILENO);
@@ -1141,6 +1143,34 @@ int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs:
 /// went away ended a command at its next line with SIGPIPE (exit 141): an
 /// impact run after it had published, a study in the middle, its cases left
 /// running.  Now each command runs to its end and says so by its exit code.
+TEST(Lifecycle, AStudyKilledWithItsProcessGroupLeavesNoCaseRunning) {
+  // `kill -9 -PGID` (as `timeout -s KILL` or a terminal's Ctrl-\ signal a
+  // job) ended the study alone while each case led a process group of its
+  // own, and the cases ran on and published after it.
+  TempDir work;
+  std::vector<std::string> args = tiny_study(work / "study");
+  args.insert(args.end(), {"--set", "time.dT=1e-5"});  // cases of many seconds
+  const Child c = start(args, work / "study", "", {}, true);
+  ASSERT_TRUE(wait_for_text(c.out, "started  M = 50"));
+  const std::string out = read_file(c.out);
+  std::vector<std::string> cases;
+  const std::regex started("pid ([0-9]+)");
+  for (auto it = std::sregex_iterator(out.begin(), out.end(), started);
+       it != std::sregex_iterator(); ++it)
+    cases.push_back("/proc/" + (*it)[1].str());
+  ASSERT_EQ(cases.size(), 2u) << out;
+  kill(-c.pid, SIGKILL);
+  EXPECT_EQ(exit_code_of(c), 128 + SIGKILL);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  const auto any_runs = [&] {
+    return std::any_of(cases.begin(), cases.end(),
+                       [](const std::string& proc) { return fs::exists(proc); });
+  };
+  while (any_runs() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(kPoll);
+  EXPECT_FALSE(any_runs()) << "a case runs on";
+}
+
 TEST(Lifecycle, AReaderOfStdoutThatWentAwayEndsNoCommand) {
   TempDir work;
   const fs::path run = work / "run";
@@ -1282,6 +1312,15 @@ TEST(Lifecycle, WhatTheFigureScriptStartedEndsWithTheStudy) {
   while (fs::exists(sleeper) && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_FALSE(fs::exists(sleeper)) << "the figure script's sleep runs on";
+
+  // Nor does what a script that succeeded left running: it wrote into the
+  // figures' staging directory after the study had ended.
+  std::ofstream(script, std::ios::trunc) << "echo '{}' > \"$2/summary.json\"\n"
+                                         << "(sleep 2; echo late > \"$1/late.txt\") &\n";
+  const Child done = start(tiny_study_with_script(study, script), work / "done");
+  EXPECT_EQ(exit_code_of(done), 0) << read_file(done.out) << read_file(done.err);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  EXPECT_FALSE(fs::exists(study / "late.txt"));
 }
 
 TEST(Lifecycle, AFigureScriptsFailureIsReportedOnOneCleanLine) {
