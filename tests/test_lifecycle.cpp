@@ -451,6 +451,14 @@ TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
   ASSERT_EQ(run_into(work / "third", "--set time.T_end=0.3").exit_code, 0);
   EXPECT_EQ(read_file(debris / "data" / "notes.txt"), "precious\n");
   EXPECT_FALSE(fs::exists(debris / "fields.nc.part"));  // the rest of the debris went
+  // DIR a mount point itself: the swap failed with EBUSY after all the work.
+  const SmallTmpfs mount_point(work / "mp");
+  const Result at_mount = run_into(work / "mp", "--set time.T_end=0.3");
+  EXPECT_EQ(at_mount.exit_code, 2);
+  EXPECT_EQ(at_mount.err, "ehlsim: error: --out '" + (work / "mp").string() +
+                              "' is a mount point: ehlsim replaces the directory as a whole, "
+                              "which a mount point cannot be; give a directory in it, such as '" +
+                              (work / "mp" / "run").string() + "'\n");
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

@@ -306,8 +306,18 @@ std::string mount_point_text(const fs::path& shown, const fs::path& mount) {
       shown.string(), mount.string());
 }
 
-/// Refuses (bad input) a run into `resolved`, shown as `shown`, that holds a mount point.
-void refuse_mount_point_below(const fs::path& resolved, const fs::path& shown) {
+/// Refuses (bad input) a run into `resolved`, shown as `shown`, that is or
+/// holds a mount point.  One that is failed with EBUSY at the swap, after
+/// all the work.
+void refuse_mount_points(const fs::path& resolved, const fs::path& shown) {
+  std::error_code ec;
+  if (fs::is_directory(fs::symlink_status(resolved, ec)) &&
+      is_mount_point(resolved, device_of_parent(resolved)))
+    throw ConfigError(fmt::format("--out '{}' is a mount point: ehlsim replaces the directory as a "
+                                  "whole, which a mount point cannot be; give a directory in it, "
+                                  "such as '{}'",
+                                  shown.string(), (shown / "run").string()),
+                      "--out");
   if (const fs::path mount = first_mount_point_below(resolved); !mount.empty())
     throw ConfigError(mount_point_text(shown, shown / mount.lexically_relative(resolved)), "--out");
 }
@@ -645,7 +655,7 @@ RunDirectory::RunDirectory(const fs::path& target)
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
   check_replaceable_run_directory(target_);
   check_not_holding_working_directory(resolved_, target_);
-  refuse_mount_point_below(resolved_, target_);
+  refuse_mount_points(resolved_, target_);
   remove_debris(resolved_);
   entries_at_start_ = entries_below(resolved_, {});
   fs::create_directory(staging_);
@@ -663,7 +673,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
   std::error_code ec;
   if (fs::exists(fs::status(refuse_non_directory(target_), ec))) check_writable(target_);
   check_not_holding_working_directory(resolved_, target_);
-  refuse_mount_point_below(resolved_, target_);
+  refuse_mount_points(resolved_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }
