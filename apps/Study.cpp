@@ -663,6 +663,11 @@ std::variant<nlohmann::json, int> case_entries(const std::vector<Case>& cases) {
       return report_interruption(cases, analysis);
     } catch (const PublishInterrupted&) {
       return report_interruption(cases, analysis);
+    } catch (const std::exception& e) {
+      // A run the study made that cannot be analysed is a failure (exit 1),
+      // not bad input (a ConfigError of the analysis ended the study with 2).
+      throw std::runtime_error(
+          fmt::format("the spike analysis of {} failed: {}", c.name, e.what()));
     }
   }
   return entries;

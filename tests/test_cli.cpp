@@ -306,7 +306,7 @@ TEST(Cli, ADirectoryNamedWithBytesThatAreNoTextIsWrittenAndShownSafely) {
   EXPECT_EQ(nl.out.find("n\nl"), std::string::npos) << nl.out;
 }
 
-TEST(Cli, ARunDirectoryWhoseNameBeginsWithABlankIsReadAndContinued) {
+TEST(Cli, ARunDirectoryNamedWithALeadingBlankOrLikeAUrlIsReadAndContinued) {
   // libnetcdf drops the leading blanks and control characters of a file
   // name: `spike ' r'` could not read the fields.nc that `impact --out ' r'`
   // had written, and the checkpoint went to ./r.checkpoint.nc.part, after
@@ -328,6 +328,14 @@ TEST(Cli, ARunDirectoryWhoseNameBeginsWithABlankIsReadAndContinued) {
                                     quote("\t r/checkpoint.nc") + " --out r2",
                                 in_dir);
   EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+  // And it took a name with "://" for a URL: the checkpoint of a run into
+  // q://r failed ("nc_create: NetCDF: Invalid argument"), and spike could not read it.
+  const Result url =
+      ehlsim("impact " + tiny + "--set output.checkpoint_every=5 --out q://r", in_dir);
+  ASSERT_EQ(url.exit_code, 0) << url.err;
+  EXPECT_TRUE(fs::exists(dir / "q:" / "r" / "checkpoint.nc"));
+  const Result url_spike = ehlsim("spike q://r", in_dir);
+  EXPECT_EQ(url_spike.exit_code, 0) << url_spike.err;
 }
 
 TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {

@@ -16,7 +16,11 @@
 namespace ehlsim {
 
 std::string netcdf_path(const std::filesystem::path& path) {
-  return path.is_absolute() ? path.string() : "./" + path.string();
+  std::string name = path.is_absolute() ? path.string() : "./" + path.string();
+  // A repeated separator is one; libnetcdf took 'q://st/M100/fields.nc' for a URL.
+  const auto repeated = [](char a, char b) { return a == '/' && b == '/'; };
+  name.erase(std::unique(name.begin(), name.end(), repeated), name.end());
+  return name;
 }
 
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,

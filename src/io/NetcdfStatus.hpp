@@ -9,10 +9,11 @@
 
 namespace ehlsim {
 
-/// The name to give libnetcdf for `path`: a relative one behind "./".
-/// libnetcdf parses a file name as a possible URL first and drops its
-/// leading blanks and control characters: ' run/fields.nc' was opened as
-/// 'run/fields.nc', which did not exist, and a checkpoint was written there.
+/// The name to give libnetcdf for `path`: a relative one behind "./", and
+/// no separator repeated.  libnetcdf parses a file name as a possible URL
+/// first: it dropped the leading blanks and control characters of
+/// ' run/fields.nc', which did not exist, and wrote a checkpoint there; and
+/// it took 'q://st/M100/fields.nc' for a URL.
 [[nodiscard]] std::string netcdf_path(const std::filesystem::path& path);
 
 /// Throws std::runtime_error "cannot <action> '<path>': <what>: <NetCDF's
