@@ -154,11 +154,13 @@ const CLI::Option* cluster_option(const CLI::App& app, std::string_view letters,
   return option;
 }
 
-/// Whether the short cluster "-abc" holds a '-' after flags only: CLI11 read
-/// -q-out=x as -q --out=x, and -q- as -q.
-bool dash_in_cluster(const CLI::App& app, std::string_view letters, int argc, char** argv) {
+/// Whether the short cluster "-abc" holds, after flags only, a character
+/// that names no option: CLI11 made an argument of the rest, and read -q-out=x
+/// as -q --out=x, -q- as -q, and '-q ' as -q with the config file '- '.
+bool stray_character_in_cluster(const CLI::App& app, std::string_view letters, int argc,
+                                char** argv) {
   for (const char letter : letters) {
-    if (letter == '-') return true;
+    if (std::isalnum(static_cast<unsigned char>(letter)) == 0) return true;
     const CLI::Option* option = option_of_command(app, std::string("-") + letter, argc, argv);
     if (option == nullptr || option->get_expected_max() != 0) return false;
   }
@@ -208,9 +210,10 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
         !misplaced.empty())
       return misplaced;
     if (arg.size() > 2 && arg[0] == '-' && arg[1] != '-' &&
-        dash_in_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv))
+        stray_character_in_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv))
       return fmt::format(
-          "{}: a group of short options holds a '-': give a long option on its own (see --help)",
+          "{}: a group of short options holds a character that names none: give each option on "
+          "its own (see --help)",
           printable(arg));
     const std::size_t equals = arg.find('=');
     if (!arg.starts_with('-') || equals == std::string_view::npos || equals < 2) continue;

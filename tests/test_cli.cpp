@@ -177,11 +177,15 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
                    "--quiet=true: --quiet takes no value (see --help)");
   expect_bad_input(ehlsim("spike -q=1 x"), "-q=1: -q takes no value (see --help)");
   expect_bad_input(ehlsim("impact -qq=1 --out x"), "-qq=1: -q takes no value (see --help)");
-  // CLI11 read -q-out=x as -q --out=x, and -q- as -q.
-  const std::string kDashInCluster =
-      ": a group of short options holds a '-': give a long option on its own (see --help)";
-  expect_bad_input(ehlsim("impact -q-out=x"), "-q-out=x" + kDashInCluster);
-  expect_bad_input(ehlsim("impact -q- --out x"), "-q-" + kDashInCluster);
+  // CLI11 read -q-out=x as -q --out=x, -q- as -q, and '-q ' as -q with the
+  // config file '- '.
+  const std::string kStray =
+      ": a group of short options holds a character that names none: give each option on its "
+      "own (see --help)";
+  expect_bad_input(ehlsim("impact -q-out=x"), "-q-out=x" + kStray);
+  expect_bad_input(ehlsim("impact -q- --out x"), "-q-" + kStray);
+  expect_bad_input(ehlsim("impact '-q ' --out x"), "-q " + kStray);
+  expect_bad_input(ehlsim("impact -q@x --out x"), "-q@x" + kStray);
   // A short option's '=' is part of its value for CLI11: -o=x made "=x".
   expect_bad_input(ehlsim("impact -o=x"),
                    "-o=x: a short option takes its value after a space: -o VALUE or --out=VALUE");
