@@ -173,10 +173,17 @@ std::string command_after(const CLI::App& app, std::string_view first, int argc,
   std::string name(first.substr(0, first.find('=')));
   if (!name.starts_with("--")) name.resize(std::min<std::size_t>(name.size(), 2));  // -qo: -q
   if (app.get_option_no_throw(name) != nullptr) return {};  // ehlsim's own: --help, --version
-  for (int i = 2; i < argc && std::string_view(argv[i]) != "--"; ++i)
-    for (const CLI::App* command : app.get_subcommands({}))
-      if (command->check_name(argv[i]))
-        return command->get_option_no_throw(name) != nullptr ? command->get_name() : "";
+  for (int i = 2; i < argc && std::string_view(argv[i]) != "--"; ++i) {
+    for (const CLI::App* command : app.get_subcommands({})) {
+      if (!command->check_name(argv[i])) continue;
+      const CLI::Option* option = command->get_option_no_throw(name);
+      if (option == nullptr) return {};
+      // "-o impact rolling": impact is the value of -o, rolling the command.
+      const bool value_next = option->get_expected_max() != 0 && first.find('=') == first.npos &&
+                              first.size() == name.size();
+      if (!(value_next && i == 2)) return command->get_name();
+    }
+  }
   return {};
 }
 

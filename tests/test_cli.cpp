@@ -195,6 +195,9 @@ TEST(Cli, AnOptionInPlaceOfAValueIsRefused) {
   expect_bad_input(ehlsim("--quiet=1 impact --out x"),
                    "--quiet=1: options follow the command: ehlsim impact --quiet=1 ...");
   expect_bad_input(ehlsim("-o x rolling"), "-o: options follow the command: ehlsim rolling -o ...");
+  // ... also where the option's value is a command's name.
+  expect_bad_input(ehlsim("-o impact rolling"),
+                   "-o: options follow the command: ehlsim rolling -o ...");
   // An option of ehlsim itself, not of the command (CLI11: "not expected").
   expect_bad_input(ehlsim("impact --version=1"),
                    "--version=1: an option of ehlsim itself, not of impact: ehlsim --version");
