@@ -22,6 +22,7 @@
 #include "io/Checkpoint.hpp"
 #include "support/CheckpointDamage.hpp"
 #include "support/MemoryGuardCheck.hpp"
+#include "support/MinimalRun.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
 
@@ -566,8 +567,7 @@ TEST(Cli, FilesHdf5CrashesOnAreBadInputNotACrash) {
 
   const fs::path run = dir / "finished";
   fs::create_directories(run);
-  write_file(run / "run.json",
-             R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})");
+  write_file(run / "run.json", ehlsim::testing::minimal_run_json());
   fs::copy_file(library_crash("fields-hdf5-H5HG_read-segv.nc"), run / "fields.nc");
   expect_library_crash(ehlsim("spike --quiet " + quote(run.string())),
                        "cannot read '" + (run / "fields.nc").string() + "': ");
@@ -635,6 +635,17 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   expect_bad_input(
       ehlsim("spike --quiet " + quote(empty)),
       "cannot read '" + empty + "/run.json': program.command is 5, not the name of a command");
+  write_file(dir / "empty" / "run.json", R"({"program": ["impact"]})");
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "cannot read '" + empty + "/run.json': program is [\"impact\"], not a table");
+  // ... or one of the settings (merge_patch removes a key set to null).
+  write_file(
+      dir / "empty" / "run.json",
+      ehlsim::testing::minimal_run_json({{"parameters", {{"spike", {{"min_height", nullptr}}}}}}));
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "cannot read '" + empty +
+                       "/run.json': parameters.spike has no min_height (every run of ehlsim impact "
+                       "records each spike setting)");
   // A link loop as RUN_DIR was named as the --out it defaults to.
   fs::create_symlink("loop2", dir / "loop1");
   fs::create_symlink("loop1", dir / "loop2");
@@ -642,8 +653,7 @@ TEST(Cli, SpikeOnABadRunDirectory) {
       ehlsim("spike --quiet " + quote((dir / "loop1").string())),
       "run directory '" + (dir / "loop1").string() + "' does not exist or is not a directory");
   // A run.json without fields.nc: the NetCDF error, on one line.
-  const std::string kMinimalRun =
-      R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})";
+  const std::string kMinimalRun = ehlsim::testing::minimal_run_json();
   write_file(dir / "empty" / "run.json", kMinimalRun);
   const Result r = ehlsim("spike --quiet " + quote(empty));
   EXPECT_EQ(r.exit_code, 2);
@@ -653,7 +663,7 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "--set 'case.M=3': only spike.* keys apply to an analysis of a finished run");
   // A bad spike setting is named where it was given: run.json, or --set.
   write_file(dir / "empty" / "run.json",
-             R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {"filter": "x"}}})");
+             ehlsim::testing::minimal_run_json({{"parameters", {{"spike", {{"filter", "x"}}}}}}));
   expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
                    "spike.filter = \"x\": must be one of \"butterworth\", \"gaussian\", "
                    "\"none\" (parameters of '" +

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "io/Checkpoint.hpp"
+#include "support/MinimalRun.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
 
@@ -1571,8 +1572,7 @@ TEST(Lifecycle, ASignalWhileHdf5HangsOnAFileEndsTheCommandAndItsReader) {
   const fs::path out = work / "out";
   const fs::path run = work / "run";
   fs::create_directories(run);
-  std::ofstream(run / "run.json")
-      << R"({"parameters": {"time": {"Delta0": 1.0, "V0": 1.0}, "spike": {}}})";
+  std::ofstream(run / "run.json") << ehlsim::testing::minimal_run_json();
   fs::copy_file(library_crash("fields-hdf5-H5HG-heap-loop.nc"), run / "fields.nc");
   const std::vector<std::tuple<std::vector<std::string>, int, std::string>> cases = {
       {{"impact", "--quiet", "--set", "grid.points=9", "--set", "solver.coarsest_points=5",

@@ -62,8 +62,17 @@ std::vector<std::string> recorded_spike_settings(const nlohmann::json& run,
         "of ehlsim impact records)",
         run_file.string()));
   }
-  std::vector<std::string> out;
   const nlohmann::json& settings = parameters->at("spike");
+  // Each of them: one missing was analysed with its default.
+  const nlohmann::json defaults = effective_parameters_json(load_config(std::nullopt, {}));
+  for (const auto& [key, value] : defaults.at("spike").items()) {
+    if (!settings.contains(key))
+      throw ConfigError(
+          fmt::format("cannot read '{}': parameters.spike has no {} (every run of "
+                      "ehlsim impact records each spike setting)",
+                      run_file.string(), key));
+  }
+  std::vector<std::string> out;
   for (auto it = settings.begin(); it != settings.end(); ++it)
     out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
   return out;
@@ -93,7 +102,10 @@ std::vector<std::string> spike_overrides(const nlohmann::json& run,
 void check_impact_run(const nlohmann::json& run, const std::filesystem::path& path) {
   if (!run.is_object()) return;
   const auto program = run.find("program");
-  if (program == run.end() || !program->is_object()) return;
+  if (program == run.end()) return;
+  if (!program->is_object())
+    throw ConfigError(fmt::format("cannot read '{}': program is {}, not a table", path.string(),
+                                  echo_input(program->dump())));
   const auto command = program->find("command");
   if (command != program->end() && !command->is_string())
     throw ConfigError(
