@@ -668,6 +668,14 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "spike.filter = \"x\": must be one of \"butterworth\", \"gaussian\", "
                    "\"none\" (parameters of '" +
                        empty + "/run.json')");
+  // ... also a value that is no TOML value (it was told "(--set)").
+  write_file(dir / "empty" / "run.json",
+             ehlsim::testing::minimal_run_json(
+                 {{"parameters", {{"spike", {{"smoothing_points", {{"a", 1}}}}}}}}));
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "spike.smoothing_points = \"{\"a\":1}\": must be an integer in [1, "
+                   "2147483647] (parameters of '" +
+                       empty + "/run.json')");
   write_file(dir / "empty" / "run.json", kMinimalRun);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set spike.filter=y"),
                    "spike.filter = \"y\": must be one of \"butterworth\", \"gaussian\", "

@@ -280,6 +280,27 @@ std::string origin_suffix(const std::string& origin) {
   return origin.empty() ? std::string() : " (" + origin + ")";
 }
 
+/// "v = VALUE" with VALUE a TOML string of `value`, parsed with `origin` as
+/// its source (a string made without one named "--set" as its origin, also
+/// for a value of a run.json), or nothing when `value` is no UTF-8.
+std::optional<toml::table> as_string_value(const std::string& value, std::string_view origin) {
+  std::string quoted = "v = \"";
+  constexpr unsigned char kFirstPrintable = 0x20, kDelete = 0x7f;
+  for (const char c : value) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '"' || c == '\\') quoted += '\\';
+    if (byte < kFirstPrintable || byte == kDelete)
+      quoted += fmt::format("\\u{:04x}", byte);
+    else
+      quoted += c;
+  }
+  try {
+    return toml::parse(quoted + '"', origin);
+  } catch (const toml::parse_error&) {
+    return std::nullopt;
+  }
+}
+
 [[noreturn]] void fail_value(const std::string& key, const std::string& text,
                              const std::string& problem, const std::string& origin) {
   throw ConfigError(fmt::format("{} = {}: {}{}", echo_input(key), echo_input(text), problem,
@@ -653,10 +674,11 @@ void apply_override(toml::table& root, const std::string& assignment, std::strin
                  node_origin(*existing, file));
     }
   }
+  if (!parsed) parsed = as_string_value(value, origin);
   if (parsed) {
     parsed->get("v")->visit([&](auto&& node) { target->insert_or_assign(name, std::move(node)); });
   } else {
-    target->insert_or_assign(name, value);
+    target->insert_or_assign(name, value);  // no UTF-8: its origin is "--set"
   }
 }
 
