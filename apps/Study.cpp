@@ -314,12 +314,15 @@ int wait_for_group(pid_t pid) {
   int status = 0;
   std::optional<std::chrono::steady_clock::time_point> signalled_at;
   for (;;) {
-    const pid_t ended = waitpid(pid, &status, signalled_at ? WNOHANG : 0);
-    if (ended == pid) {
-      kill(-pid, SIGKILL);
+    siginfo_t ended{};
+    const int waited = waitid(P_PID, static_cast<id_t>(pid), &ended,
+                              WEXITED | WNOWAIT | (signalled_at ? WNOHANG : 0));
+    if (waited == 0 && ended.si_pid == pid) {
+      kill(-pid, SIGKILL);  // while the leader, not yet reaped, holds the group's id
+      waitpid(pid, &status, 0);
       return exit_code_of(status);
     }
-    if (ended < 0 && errno != EINTR)
+    if (waited < 0 && errno != EINTR)
       throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
     if (!signalled_at && InterruptGuard::received() != 0) {
       kill(-pid, InterruptGuard::received());
