@@ -272,7 +272,7 @@ void remove_entries_within_mount(const fs::path& dir, dev_t device) noexcept {
 void remove_within_mount(const fs::path& path) noexcept {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) return;
-  if (S_ISLNK(st.st_mode) || !S_ISDIR(st.st_mode)) {
+  if (!S_ISDIR(st.st_mode)) {  // a file, a link (not followed), ...
     if (!is_mount_point(path, device_of_parent(path))) ::unlink(path.c_str());
     return;
   }
