@@ -214,6 +214,7 @@ struct KeptCheckpoint {
   int step = 0;  ///< 0: none
   std::filesystem::path path;
   bool written = false;  ///< by this run (DIR.checkpoint.nc)
+  double T = 0.0;        ///< its time
 };
 
 /// The last time step a run completed, for the message of a failure that
@@ -272,7 +273,7 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
     write_checkpoint(run_dir.checkpoint(), state, parameters);
     if (!kept.written && config.checkpoint_every > 0)
       output.add_file("checkpoint", kCheckpointFile);
-    kept = {state.step, run_dir.checkpoint(), true};
+    kept = {state.step, run_dir.checkpoint(), true, state.ball.T};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
@@ -287,11 +288,21 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
 
 /// The one line of a run stopped by `signal` after its last step, before the
 /// swap (io/RunDirectory.hpp); its exit code.
-int report_unpublished(const ImpactOptions& options, const KeptCheckpoint& kept, int signal) {
-  const std::string next = kept.step > 0
-                               ? fmt::format("resume from the checkpoint of step {} with: {}",
-                                             kept.step, resume_command(options, kept.path))
-                               : std::string("no checkpoint was written: run the command again");
+int report_unpublished(const ImpactOptions& options, const ImpactConfig& config,
+                       const KeptCheckpoint& kept, int signal) {
+  // A checkpoint of the run's last step leaves no step to resume: its resume
+  // command was refused ("time.T_end = 1: must be later than the time of checkpoint").
+  const bool last =
+      (std::isfinite(config.T_end) && !(config.T_end > kept.T)) ||
+      (!std::isfinite(config.T_end) && config.max_steps > 0 && config.max_steps <= kept.step);
+  const std::string next =
+      kept.step == 0 ? std::string("no checkpoint was written: run the command again")
+      : last         ? fmt::format(
+                           "its checkpoint is of its last step ({}), which leaves nothing to "
+                                   "resume: run the command again",
+                           kept.step)
+             : fmt::format("resume from the checkpoint of step {} with: {}", kept.step,
+                           resume_command(options, kept.path));
   std::fprintf(stderr,
                "ehlsim: interrupted by %s after the last step, before the run was published: "
                "'%s' was not changed; %s\n",
@@ -429,7 +440,8 @@ int run_impact(const ImpactOptions& options) {
   // A restarted run that fails before its first checkpoint can be resumed
   // from the one it started from.
   KeptCheckpoint kept;
-  if (checkpoint) kept = {checkpoint->state.step, options.restart_file, false};
+  if (checkpoint)
+    kept = {checkpoint->state.step, options.restart_file, false, checkpoint->state.ball.T};
   LastStep last;
   try {
     simulate(options, config, checkpoint, *run_dir, invocation, kept, last);
@@ -438,7 +450,7 @@ int run_impact(const ImpactOptions& options) {
     return report_interrupted(options, kept, e);
   } catch (const PublishInterrupted& e) {
     run_dir.reset();  // the staging directory goes; DIR is as it was
-    return report_unpublished(options, kept, e.signal);
+    return report_unpublished(options, config, kept, e.signal);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
