@@ -643,6 +643,9 @@ StudyPlan plan_study(const StudyOptions& options) {
       throw ConfigError(fmt::format("case {}: {}", c.name, e.what()), e.key());
     }
   }
+  // figures/ is replaced as a whole too.
+  if (std::error_code ec; !options.no_plots && fs::is_directory(out / "figures", ec))
+    check_no_mount_point(out / "figures");
   plan.script = options.plot_script.empty() ? default_plot_script() : fs::path(options.plot_script);
   if (std::error_code ec; !options.no_plots && !fs::is_regular_file(plan.script, ec)) {
     throw ConfigError(

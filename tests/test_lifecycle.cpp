@@ -458,8 +458,25 @@ TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
   EXPECT_EQ(at_mount.exit_code, 2);
   EXPECT_EQ(at_mount.err, "ehlsim: error: --out '" + (work / "mp").string() +
                               "' is a mount point: ehlsim replaces the directory as a whole, "
-                              "which a mount point cannot be; give a directory in it, such as '" +
-                              (work / "mp" / "run").string() + "'\n");
+                              "which a mount point cannot be; unmount it, or choose another "
+                              "--out, such as a directory in it\n");
+  // So is a study's case directory, before any case runs (all ran, then it failed).
+  const Result study = ehlsim(
+      "study --grid 33 --rolling-grid 33 --no-plots --set time.T_end=0.3 "
+      "--out " +
+      quote((work / "study").string()));
+  ASSERT_EQ(study.exit_code, 0) << study.err;
+  const SmallTmpfs case_mount(work / "study" / "M50");
+  const Result refused = ehlsim(
+      "study --grid 33 --rolling-grid 33 --no-plots --set "
+      "time.T_end=0.3 --out " +
+      quote((work / "study").string()));
+  EXPECT_EQ(refused.exit_code, 2) << refused.out;
+  EXPECT_NE(refused.err.find("case M50: --out '" + (work / "study" / "M50").string() +
+                             "' is a mount point"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_EQ(refused.out.find("started"), std::string::npos) << refused.out;
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

@@ -314,9 +314,9 @@ void refuse_mount_points(const fs::path& resolved, const fs::path& shown) {
   if (fs::is_directory(fs::symlink_status(resolved, ec)) &&
       is_mount_point(resolved, device_of_parent(resolved)))
     throw ConfigError(fmt::format("--out '{}' is a mount point: ehlsim replaces the directory as a "
-                                  "whole, which a mount point cannot be; give a directory in it, "
-                                  "such as '{}'",
-                                  shown.string(), (shown / "run").string()),
+                                  "whole, which a mount point cannot be; unmount it, or choose "
+                                  "another --out, such as a directory in it",
+                                  shown.string()),
                       "--out");
   if (const fs::path mount = first_mount_point_below(resolved); !mount.empty())
     throw ConfigError(mount_point_text(shown, shown / mount.lexically_relative(resolved)), "--out");
@@ -532,10 +532,13 @@ const fs::path& refuse_non_directory(const fs::path& shown) {
   return shown;
 }
 
+void check_no_mount_point(const fs::path& dir) { refuse_mount_points(dir, dir); }
+
 void check_replaceable_run_directory(const fs::path& dir) {
   std::error_code ec;
   if (!fs::exists(fs::status(refuse_non_directory(dir), ec))) return;
   check_writable(dir);
+  check_no_mount_point(dir);
   if (fs::is_empty(dir, ec)) return;
   const char* policy =
       "ehlsim writes only into a new or empty directory or over an earlier ehlsim run; "
@@ -557,6 +560,11 @@ void check_replaceable_run_directory(const fs::path& dir) {
 }
 
 void replace_directory(const fs::path& staging, const fs::path& target) {
+  try {
+    check_no_mount_point(target);  // one mounted since the caller's check
+  } catch (const ConfigError& e) {
+    throw std::runtime_error(e.what());
+  }
   sync_path(staging);
   settle_replacement(target, put_in_place(staging, target, fs::exists(fs::symlink_status(target))));
 }

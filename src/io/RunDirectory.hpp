@@ -168,4 +168,9 @@ const std::filesystem::path& refuse_non_directory(const std::filesystem::path& s
 /// subdirectories).
 void check_replaceable_run_directory(const std::filesystem::path& dir);
 
+/// Throws ConfigError when `dir` is a mount point or holds one: replacing
+/// it failed with EBUSY after all the work, or moved the mounts away with
+/// the earlier directory (also done by check_replaceable_run_directory).
+void check_no_mount_point(const std::filesystem::path& dir);
+
 }  // namespace ehlsim
