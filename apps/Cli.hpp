@@ -21,6 +21,12 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
+/// The environment variable by which `ehlsim study` gives its cases its own
+/// process id: a case whose parent it still is ends with the study (SIGTERM:
+/// a checkpoint and the resume line in its log), as `kill -9` of the study
+/// left the cases running to publish after it.
+inline constexpr const char* kStudyPidVariable = "EHLSIM_STUDY_PID";
+
 [[nodiscard]] std::string printable(std::string_view text);  // below, for shown()
 
 /// Writes `text` to stdout.  A write that fails because the reader went away

@@ -184,15 +184,17 @@ std::vector<char*> c_strings(std::vector<std::string>& strings) {
   return out;
 }
 
-/// Starts `program args...` with stdout and stderr to `log`; throws on failure.
+/// Starts the case `program args...` with stdout and stderr to `log`, told
+/// the study's process id (cli::kStudyPidVariable); throws on failure.
 pid_t spawn(const std::string& program, std::vector<std::string> args, const fs::path& log) {
+  std::vector<std::string> env = child_environment();
+  env.push_back(fmt::format("{}={}", cli::kStudyPidVariable, getpid()));
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
                                    O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  std::vector<std::string> env = child_environment();
   std::vector<char*> argv = c_strings(args);
   std::vector<char*> envp = c_strings(env);
   pid_t pid = -1;

@@ -16,6 +16,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <omp.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -587,8 +588,22 @@ int run_reporting_errors(int argc, char** argv) {
 /// acts on (io/Interrupt.hpp) until it has ended, and ignored from then on:
 /// the exit code then tells what the command left on disk, whenever a signal
 /// comes.
+/// A case of `ehlsim study` (cli::kStudyPidVariable) gets SIGTERM when the
+/// study ends: a case left running after `kill -9` of the study published
+/// after it.  Set with the stop signals handled; a study that ended before
+/// (this process has another parent then) is a SIGTERM at once.
+void end_with_the_study() {
+  const char* variable = std::getenv(cli::kStudyPidVariable);
+  if (variable == nullptr) return;
+  const std::string study = variable;
+  unsetenv(cli::kStudyPidVariable);  // not for what this process starts
+  prctl(PR_SET_PDEATHSIG, SIGTERM);
+  if (std::to_string(getppid()) != study) std::raise(SIGTERM);
+}
+
 int run_with_stop_signals(int argc, char** argv) {
   InterruptGuard interrupts;
+  end_with_the_study();
   const int code = run_reporting_errors(argc, argv);
   interrupts.hold_until_exit();
   return code;
