@@ -249,8 +249,13 @@ pid_t spawn_group_leader(const std::string& program, std::vector<std::string> ar
   close(report[0]);
   if (pid < 0 || got == static_cast<ssize_t>(sizeof error)) {
     if (pid > 0) waitpid(pid, nullptr, 0);
+    // A script whose "#!" line names a program that is not there fails as if
+    // it were missing itself.
+    std::error_code ec;
+    const bool interpreter = pid > 0 && error == ENOENT && fs::exists(program, ec);
     throw std::runtime_error(
-        fmt::format("cannot start '{}': {}", program, std::strerror(pid < 0 ? errno : error)));
+        fmt::format("cannot start '{}': {}{}", program, std::strerror(pid < 0 ? errno : error),
+                    interpreter ? " (the interpreter its #! line names?)" : ""));
   }
   setpgid(pid, pid);  // also here, before the study may signal the group (EACCES once exec'd)
   return pid;
