@@ -296,14 +296,14 @@ int report_unpublished(const ImpactOptions& options, const ImpactConfig& config,
   const bool last =
       (std::isfinite(config.T_end) && !(config.T_end > kept.T)) ||
       (!std::isfinite(config.T_end) && config.max_steps > 0 && config.max_steps <= kept.step);
-  const std::string next =
-      kept.step == 0 ? std::string("no checkpoint was written: run the command again")
-      : last         ? fmt::format(
-                           "its checkpoint is of its last step ({}), which leaves nothing to "
-                                   "resume: run the command again",
-                           kept.step)
-             : fmt::format("resume from the checkpoint of step {} with: {}", kept.step,
-                           resume_command(options, kept.path));
+  std::string next = fmt::format("resume from the checkpoint of step {} with: {}", kept.step,
+                                 resume_command(options, kept.path));
+  if (kept.step == 0) next = "no checkpoint was written: run the command again";
+  if (kept.step > 0 && last)
+    next = fmt::format(
+        "its checkpoint is of its last step ({}), which leaves nothing to resume: run the "
+        "command again",
+        kept.step);
   std::fprintf(stderr,
                "ehlsim: interrupted by %s after the last step, before the run was published: "
                "'%s' was not changed; %s\n",
