@@ -1,6 +1,7 @@
 #include "Cli.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <array>
@@ -9,6 +10,7 @@
 #include <limits>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "config/Parameters.hpp"
 
@@ -248,6 +250,35 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
   return {};
 }
 
+namespace {
+/// CLI11's "The following arguments were not expected: b3 --out --" (its
+/// list backwards, with the "--" separator) as "'--out', 'b3': not expected
+/// by ehlsim impact: ...", or empty when `what` is no such text.
+std::string unexpected_arguments_text(const std::string& what, const CLI::App& app, int argc,
+                                      char** argv) {
+  std::string list;
+  for (const std::string_view intro :
+       {"The following argument was not expected: ", "The following arguments were not expected: "})
+    if (what.starts_with(intro)) list = what.substr(intro.size());
+  if (list.empty()) return {};
+  std::vector<std::string> words;
+  for (std::size_t start = 0; start <= list.size();) {
+    const std::size_t end = std::min(list.find(' ', start), list.size());
+    if (const std::string word = list.substr(start, end - start); !word.empty() && word != "--")
+      words.insert(words.begin(), "'" + word + "'");
+    start = end + 1;
+  }
+  const std::string_view first = argc > 1 ? argv[1] : "";
+  const bool command =
+      !app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; }).empty();
+  const std::string who = command ? fmt::format("ehlsim {}", first) : std::string("ehlsim");
+  return fmt::format(
+      "{}: not expected by {}: an option it does not have, or one argument too "
+      "many (see {} --help)",
+      fmt::join(words, ", "), who, who);
+}
+}  // namespace
+
 std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, int argc,
                              char** argv) {
   std::string what = error.what();
@@ -268,6 +299,9 @@ std::string parse_error_text(const CLI::ParseError& error, const CLI::App& app, 
   } else if (const std::size_t gap = what.find(kMissing);
              what.starts_with('-') && gap != std::string::npos && what.ends_with(" missing")) {
     return fmt::format("{} is given no value (see --help)", what.substr(0, gap));
+  } else if (std::string unexpected = unexpected_arguments_text(what, app, argc, argv);
+             !unexpected.empty()) {
+    return unexpected;
   } else if (what == "A subcommand is required") {
     return argc > 1 ? fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
                                   ehlsim::echo_input(argv[1]), kCommandList)

@@ -240,7 +240,13 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
                    "spike, study, rolling; try ehlsim --help)");
   // An escape character of an argument reached the terminal raw.
   expect_bad_input(ehlsim("impact " + quote("--bo\x1bgus")),
-                   "The following argument was not expected: --bo\\x1bgus");
+                   "'--bo\\x1bgus': not expected by ehlsim impact: an option it does not have, or "
+                   "one argument too many (see ehlsim impact --help)");
+  // CLI11 listed the arguments backwards, with the "--" before them, and said
+  // nothing of what is allowed.
+  expect_bad_input(ehlsim("impact -- a.toml b.toml c.toml"),
+                   "'b.toml', 'c.toml': not expected by ehlsim impact: an option it does not "
+                   "have, or one argument too many (see ehlsim impact --help)");
   // A newline read as a space named another file ('cfg .toml').
   expect_bad_input(ehlsim("impact " + quote("cfg\n.toml")),
                    "cannot read config file 'cfg\\x0a.toml': No such file or directory");
