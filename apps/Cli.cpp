@@ -211,6 +211,12 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
     if (const std::string command = command_after(app, argv[1], argc, argv); !command.empty())
       return fmt::format("{}: options follow the command: ehlsim {} {} ...", printable(argv[1]),
                          command, printable(argv[1]));
+    // "ehlsim --bogus --version" printed the version, exit 0.
+    const std::string_view first = argv[1];
+    const std::string name(first.substr(0, first.starts_with("--") ? first.find('=') : 2));
+    if (first != "--" && app.get_option_no_throw(name) == nullptr)
+      return fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
+                         ehlsim::echo_input(first), kCommandList);
   }
   for (int i = 1; i < argc; ++i) {
     const std::string_view arg = argv[i];

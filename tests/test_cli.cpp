@@ -238,6 +238,10 @@ TEST(Cli, CommandLineErrorsSayWhatIsAllowed) {
   expect_bad_input(ehlsim("--bogus"),
                    "'--bogus' is neither a command nor an option of ehlsim (commands: impact, "
                    "spike, study, rolling; try ehlsim --help)");
+  // ... also before another option (--version printed the version, exit 0).
+  expect_bad_input(ehlsim("--bogus --version"),
+                   "'--bogus' is neither a command nor an option of ehlsim (commands: impact, "
+                   "spike, study, rolling; try ehlsim --help)");
   // An escape character of an argument reached the terminal raw.
   expect_bad_input(ehlsim("impact " + quote("--bo\x1bgus")),
                    "'--bo\\x1bgus': not expected by ehlsim impact: an option it does not have, or "
