@@ -131,49 +131,55 @@ void add_quiet_flag(CLI::App& command, bool& quiet) {
 }
 
 namespace {
+/// The command that argv[1] names, or nullptr.
+const CLI::App* command_given(const CLI::App& app, int argc, char** argv) {
+  const std::string_view first = argc > 1 ? argv[1] : "";
+  const std::vector<const CLI::App*> named =
+      app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; });
+  return named.empty() ? nullptr : named.front();
+}
+
+/// The option's name in an argument: "--out" of "--out=x", "-q" of "-qo".
+std::string option_name(std::string_view arg) {
+  return std::string(arg.substr(0, arg.starts_with("--") ? arg.find('=') : 2));
+}
+
 /// The option `name` of the command that argv[1] names, or of ehlsim itself
 /// when argv[1] names none (`ehlsim --help=1`); nullptr where it has none:
 /// CLI11 then says what it does not expect.
 const CLI::Option* option_of_command(const CLI::App& app, const std::string& name, int argc,
                                      char** argv) {
-  const std::string_view first = argc > 1 ? argv[1] : "";
-  for (const CLI::App* command :
-       app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; }))
+  if (const CLI::App* command = command_given(app, argc, argv))
     return command->get_option_no_throw(name);
   return app.get_option_no_throw(name);
 }
 
-/// The option of a short cluster "-abc" that CLI11 gives the text after it:
-/// its first letter that takes a value ("-oq=x" is -o with "q=x", as "-ofile"
-/// is -o with "file"), else its last (a flag, or nullptr: unknown).
-const CLI::Option* cluster_option(const CLI::App& app, std::string_view letters, int argc,
-                                  char** argv) {
+/// The letters of a short cluster "-abc" as CLI11 reads them: `option`, the
+/// one it gives the text after it: its first letter that takes a value
+/// ("-oq=x" is -o with "q=x", as "-ofile" is -o with "file"), else its last
+/// (a flag, or nullptr: unknown); `stray`, whether a character that names no
+/// option comes before that, after flags only: CLI11 made an argument of the
+/// rest, and read -q-out=x as -q --out=x, -q- as -q, and '-q ' as -q with the
+/// config file '- '.
+struct Cluster {
   const CLI::Option* option = nullptr;
-  for (const char letter : letters) {
-    option = option_of_command(app, std::string("-") + letter, argc, argv);
-    if (option == nullptr || option->get_expected_max() != 0) return option;
-  }
-  return option;
-}
+  bool stray = false;
+};
 
-/// Whether the short cluster "-abc" holds, after flags only, a character
-/// that names no option: CLI11 made an argument of the rest, and read -q-out=x
-/// as -q --out=x, -q- as -q, and '-q ' as -q with the config file '- '.
-bool stray_character_in_cluster(const CLI::App& app, std::string_view letters, int argc,
-                                char** argv) {
+Cluster read_cluster(const CLI::App& app, std::string_view letters, int argc, char** argv) {
+  Cluster cluster;
   for (const char letter : letters) {
-    if (std::isalnum(static_cast<unsigned char>(letter)) == 0) return true;
-    const CLI::Option* option = option_of_command(app, std::string("-") + letter, argc, argv);
-    if (option == nullptr || option->get_expected_max() != 0) return false;
+    if (std::isalnum(static_cast<unsigned char>(letter)) == 0) return {nullptr, true};
+    cluster.option = option_of_command(app, std::string("-") + letter, argc, argv);
+    if (cluster.option == nullptr || cluster.option->get_expected_max() != 0) return cluster;
   }
-  return false;
+  return cluster;
 }
 
 /// The command named after `first` that has the option `first` names:
 /// "ehlsim --quiet impact" was told only that --quiet was not expected.
 std::string command_after(const CLI::App& app, std::string_view first, int argc, char** argv) {
-  std::string name(first.substr(0, first.find('=')));
-  if (!name.starts_with("--")) name.resize(std::min<std::size_t>(name.size(), 2));  // -qo: -q
+  const std::string name = option_name(first);
   if (app.get_option_no_throw(name) != nullptr) return {};  // ehlsim's own: --help, --version
   for (int i = 2; i < argc && std::string_view(argv[i]) != "--"; ++i) {
     for (const CLI::App* command : app.get_subcommands({})) {
@@ -193,16 +199,13 @@ std::string command_after(const CLI::App& app, std::string_view first, int argc,
 /// said only it did not expect.
 std::string ehlsim_option_after_command(const CLI::App& app, std::string_view arg, int argc,
                                         char** argv) {
-  if (!arg.starts_with("--") || argc < 2) return {};
-  const std::string name(arg.substr(0, arg.find('=')));
-  const std::string_view first = argv[1];
-  for (const CLI::App* command :
-       app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; })) {
-    if (command->get_option_no_throw(name) == nullptr && app.get_option_no_throw(name) != nullptr)
-      return fmt::format("{}: an option of ehlsim itself, not of {}: ehlsim {}", printable(arg),
-                         first, name);
-  }
-  return {};
+  const CLI::App* command = command_given(app, argc, argv);
+  if (!arg.starts_with("--") || command == nullptr) return {};
+  const std::string name = option_name(arg);
+  if (command->get_option_no_throw(name) != nullptr || app.get_option_no_throw(name) == nullptr)
+    return {};
+  return fmt::format("{}: an option of ehlsim itself, not of {}: ehlsim {}", printable(arg),
+                     command->get_name(), name);
 }
 }  // namespace
 
@@ -213,8 +216,7 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
                          command, printable(argv[1]));
     // "ehlsim --bogus --version" printed the version, exit 0.
     const std::string_view first = argv[1];
-    const std::string name(first.substr(0, first.starts_with("--") ? first.find('=') : 2));
-    if (first != "--" && app.get_option_no_throw(name) == nullptr)
+    if (first != "--" && app.get_option_no_throw(option_name(first)) == nullptr)
       return fmt::format("'{}' is neither a command nor an option of ehlsim ({})",
                          ehlsim::echo_input(first), kCommandList);
   }
@@ -225,7 +227,7 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
         !misplaced.empty())
       return misplaced;
     if (arg.size() > 2 && arg[0] == '-' && arg[1] != '-' &&
-        stray_character_in_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv))
+        read_cluster(app, arg.substr(1, arg.find('=') - 1), argc, argv).stray)
       return fmt::format(
           "{}: a group of short options holds a character that names none: give each option on "
           "its own (see --help)",
@@ -235,7 +237,7 @@ std::string refused_option_form(const CLI::App& app, int argc, char** argv) {
     const std::string name(arg.substr(0, equals));
     const bool is_long = name.starts_with("--");
     const CLI::Option* option = is_long ? option_of_command(app, name, argc, argv)
-                                        : cluster_option(app, name.substr(1), argc, argv);
+                                        : read_cluster(app, name.substr(1), argc, argv).option;
     if (option == nullptr) continue;
     // --quiet=5 and --quiet=no were read as --quiet, --no-plots=0 as --no-plots.
     if (option->get_expected_max() == 0)
@@ -274,10 +276,9 @@ std::string unexpected_arguments_text(const std::string& what, const CLI::App& a
       words.insert(words.begin(), "'" + word + "'");
     start = end + 1;
   }
-  const std::string_view first = argc > 1 ? argv[1] : "";
-  const bool command =
-      !app.get_subcommands([&](const CLI::App* c) { return c->get_name() == first; }).empty();
-  const std::string who = command ? fmt::format("ehlsim {}", first) : std::string("ehlsim");
+  const CLI::App* command = command_given(app, argc, argv);
+  const std::string who =
+      command != nullptr ? fmt::format("ehlsim {}", command->get_name()) : std::string("ehlsim");
   return fmt::format(
       "{}: not expected by {}: an option it does not have, or one argument too "
       "many (see {} --help)",
