@@ -584,10 +584,6 @@ int run_reporting_errors(int argc, char** argv) {
   }
 }
 
-/// The command, with SIGINT, SIGTERM and SIGHUP as requests to stop that it
-/// acts on (io/Interrupt.hpp) until it has ended, and ignored from then on:
-/// the exit code then tells what the command left on disk, whenever a signal
-/// comes.
 /// A case of `ehlsim study` (cli::kStudyPidVariable) gets SIGTERM when the
 /// study ends: a case left running after `kill -9` of the study published
 /// after it.  Set with the stop signals handled; a study that ended before
@@ -601,6 +597,10 @@ void end_with_the_study() {
   if (std::to_string(getppid()) != study) std::raise(SIGTERM);
 }
 
+/// The command, with SIGINT, SIGTERM and SIGHUP as requests to stop that it
+/// acts on (io/Interrupt.hpp) until it has ended, and ignored from then on:
+/// the exit code then tells what the command left on disk, whenever a signal
+/// comes.
 int run_with_stop_signals(int argc, char** argv) {
   InterruptGuard interrupts;
   end_with_the_study();
