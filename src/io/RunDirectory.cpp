@@ -532,7 +532,11 @@ const fs::path& refuse_non_directory(const fs::path& shown) {
   return shown;
 }
 
-void check_no_mount_point(const fs::path& dir) { refuse_mount_points(dir, dir); }
+void check_no_mount_point(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path resolved = fs::weakly_canonical(dir, ec);  // DIR a link to a mount point
+  refuse_mount_points(ec ? dir : resolved, dir);
+}
 
 void check_replaceable_run_directory(const fs::path& dir) {
   std::error_code ec;
@@ -661,9 +665,8 @@ RunDirectory::RunDirectory(const fs::path& target)
       resolved_(resolve_run_directory(directory_)),
       lock_(resolved_, target_),
       staging_(sibling(resolved_, ".", fmt::format("{}{}", kStagingInfix, getpid()))) {
-  check_replaceable_run_directory(target_);
+  check_replaceable_run_directory(target_);  // with its mount points
   check_not_holding_working_directory(resolved_, target_);
-  refuse_mount_points(resolved_, target_);
   remove_debris(resolved_);
   entries_at_start_ = entries_below(resolved_, {});
   fs::create_directory(staging_);
