@@ -459,6 +459,51 @@ TEST(Lifecycle, AKilledRunsLeftoverKeepsWhatIsMountedInIt) {
   EXPECT_FALSE(fs::exists(debris / "fields.nc.part"));  // the rest of the debris went
 }
 
+TEST(Lifecycle, AMountMadeDuringTheRunIsNeitherPublishedNorEmptied) {
+  // One mounted in the staging directory was published into DIR; one mounted
+  // in DIR was named by DIR's resolved path and not as --out gave it.
+  TempDir work;
+  fs::create_directory_symlink(work.path(), work / "via");
+  const fs::path run = work / "run";
+  const fs::path shown = work / "via" / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const std::vector<std::string> args = {
+      "impact", "--quiet",        "--set", "grid.points=33", "--set", "body.elastic=false",
+      "--set",  "time.T_end=0.3", "--out", shown.string()};
+  const Child staged = start(args, work / "staged", "publish");
+  ASSERT_TRUE(wait_until_stopped(staged));
+  const fs::path staging = work / (".run.part-" + std::to_string(staged.pid));
+  ASSERT_TRUE(fs::is_directory(staging));
+  {
+    const SmallTmpfs data(staging / "data");
+    if (!data.mounted()) {
+      resume(staged, SIGKILL);
+      GTEST_SKIP() << "mount -t tmpfs is not permitted here";
+    }
+    std::ofstream(staging / "data" / "notes.txt") << "precious\n";
+    const Result r = resume(staged, 0);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("'" + (staging / "data").string() + "' was mounted during the run in '" +
+                         staging.string() + "', where ehlsim writes the run before it replaces '" +
+                         shown.string() + "': nothing was published; unmount it"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(read_file(staging / "data" / "notes.txt"), "precious\n");
+    EXPECT_EQ(contents(run), before);
+  }
+  fs::remove_all(staging);  // unmounted: the debris of the failed run
+  const Child in_dir = start(args, work / "in_dir", "publish");
+  ASSERT_TRUE(wait_until_stopped(in_dir));
+  const SmallTmpfs data(run / "data");
+  const Result r = resume(in_dir, 0);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--out '" + shown.string() + "' holds '" + (shown / "data").string() +
+                       "', a mount point"),
+            std::string::npos)
+      << r.err;
+}
+
 TEST(Lifecycle, ARunDirectoryThatIsAMountPointIsRefusedBeforeAnyWork) {
   // The swap failed with EBUSY after all the work.
   TempDir work;

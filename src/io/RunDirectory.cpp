@@ -324,8 +324,11 @@ void refuse_mount_points(const fs::path& resolved, const fs::path& shown) {
 
 /// Every entry below `dir` (links not followed) but the `skipped` names in
 /// `dir` itself, parents before their children; none when `dir` is missing.
+/// A mount point below it fails, named below `shown`, the directory as the
+/// user gave it.
 std::vector<CarriedEntry> entries_below(const fs::path& dir,
-                                        const std::vector<std::string>& skipped) {
+                                        const std::vector<std::string>& skipped,
+                                        const fs::path& shown) {
   std::vector<CarriedEntry> entries;
   struct stat top {};
   if (::stat(dir.c_str(), &top) != 0) return entries;
@@ -342,7 +345,7 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
           fmt::format("cannot read '{}': {}", it->path().string(), system_message(errno)));
     }
     if (!S_ISLNK(status.st_mode) && is_mount_point(it->path(), top.st_dev))
-      throw std::runtime_error(mount_point_text(dir, it->path()));
+      throw std::runtime_error(mount_point_text(shown, shown / it->path().lexically_relative(dir)));
     entries.push_back({it->path().lexically_relative(dir), status.st_dev, status.st_ino});
   }
   std::sort(entries.begin(), entries.end(),
@@ -668,7 +671,7 @@ RunDirectory::RunDirectory(const fs::path& target)
   check_replaceable_run_directory(target_);  // with its mount points
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
-  entries_at_start_ = entries_below(resolved_, {});
+  entries_at_start_ = entries_below(resolved_, {}, target_);
   fs::create_directory(staging_);
 }
 
@@ -734,12 +737,13 @@ void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
   if (amend_) {
     // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
     // it only against other ehlsim processes).
-    carried_ = entries_below(resolved_, replaced_);
+    carried_ = entries_below(resolved_, replaced_, target_);
     carry_over(resolved_, staging_, carried_);
     if (fs::exists(resolved_)) copy_directory_attributes(resolved_, staging_);
   }
   sync_path(staging_);
   stop_here_for_tests("publish");
+  refuse_mount_in_staging();
   check_target_unchanged();
   if (const int signal = InterruptGuard::received(); signal != 0) throw PublishInterrupted(signal);
   const fs::path old = put_in_place(staging_, resolved_, fs::exists(resolved_));
@@ -752,6 +756,16 @@ void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
   if (with_checkpoint || resumed_from_checkpoint) fs::remove(checkpoint(), ec);
 }
 
+void RunDirectory::refuse_mount_in_staging() const {
+  // Published, it would become part of DIR, which the next run cannot replace.
+  if (const fs::path mount = first_mount_point_below(staging_); !mount.empty()) {
+    throw std::runtime_error(fmt::format(
+        "'{}' was mounted during the run in '{}', where ehlsim writes the run before it "
+        "replaces '{}': nothing was published; unmount it",
+        mount.string(), staging_.string(), target_.string()));
+  }
+}
+
 void RunDirectory::check_target_unchanged() const {
   if (!amend_) {
     try {
@@ -762,7 +776,7 @@ void RunDirectory::check_target_unchanged() const {
     // So does a run or an analysis that wrote into a subdirectory of DIR and
     // ended meanwhile (`ehlsim spike DIR --out DIR/gauss`): its files are
     // ehlsim's and its lock is gone, but it is not the run this one replaces.
-    for (const CarriedEntry& entry : entries_below(resolved_, {})) {
+    for (const CarriedEntry& entry : entries_below(resolved_, {}, target_)) {
       if (std::find(entries_at_start_.begin(), entries_at_start_.end(), entry) ==
           entries_at_start_.end()) {
         throw std::runtime_error(fmt::format(
@@ -771,7 +785,7 @@ void RunDirectory::check_target_unchanged() const {
             target_.string(), (target_ / entry.relative).string()));
       }
     }
-  } else if (entries_below(resolved_, replaced_) != carried_) {
+  } else if (entries_below(resolved_, replaced_, target_) != carried_) {
     // The swap would drop what came meanwhile, or bring back what went.
     throw std::runtime_error(
         fmt::format("'{}' changed while its files were carried over (an entry added, removed or "

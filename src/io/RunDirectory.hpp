@@ -123,6 +123,8 @@ class RunDirectory {
   std::vector<CarriedEntry> entries_at_start_;  ///< new run: what DIR held when it began
   bool published_ = false;
 
+  /// Throws std::runtime_error when something was mounted in the staging directory.
+  void refuse_mount_in_staging() const;
   /// Throws std::runtime_error when DIR may no longer be replaced by the staging directory.
   void check_target_unchanged() const;
 };
