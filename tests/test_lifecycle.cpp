@@ -532,6 +532,21 @@ TEST(Lifecycle, ARunDirectoryThatIsAMountPointIsRefusedBeforeAnyWork) {
             std::string::npos)
       << refused.err;
   EXPECT_EQ(refused.out.find("started"), std::string::npos) << refused.out;
+  // A file bind-mounted where the run keeps its checkpoint: the first
+  // checkpoint failed (EBUSY) after the steps before it.
+  const fs::path checkpoint = work / "ck.checkpoint.nc";
+  ASSERT_EQ(run_into(work / "src", "--set time.T_end=0.2").exit_code, 0);
+  std::ofstream(checkpoint.string()) << "";
+  ASSERT_EQ(
+      mount((work / "src" / "fields.nc").c_str(), checkpoint.c_str(), nullptr, MS_BIND, nullptr),
+      0);
+  const Result bound =
+      run_into(work / "ck", "--set time.T_end=0.3 --set output.checkpoint_every=1");
+  umount(checkpoint.c_str());
+  EXPECT_EQ(bound.exit_code, 2);
+  EXPECT_EQ(bound.err, "ehlsim: error: --out '" + (work / "ck").string() +
+                           "': a run keeps its checkpoint beside it, and '" + checkpoint.string() +
+                           "' is a mount point: move it, or choose another --out\n");
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

@@ -716,6 +716,9 @@ void RunDirectory::refuse_foreign_checkpoint() const {
     std::string why;
     if (fs::is_symlink(status)) {
       why = fmt::format("'{}' is a symbolic link", path.string());
+    } else if (fs::exists(status) && is_mount_point(path, device_of_parent(path))) {
+      // Renamed over at the first checkpoint: EBUSY after the work.
+      why = fmt::format("'{}' is a mount point", path.string());
     } else if (fs::exists(status) &&
                !(path == partial && fs::is_regular_file(status) && fs::is_empty(path, ec))) {
       try {
