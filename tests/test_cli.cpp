@@ -656,6 +656,17 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "cannot read '" + empty +
                        "/run.json': parameters.spike has no min_height (every run of ehlsim impact "
                        "records each spike setting)");
+  // ... or one that is null or a table: shown as the text "null", quoted.
+  for (const auto& [odd, shown] :
+       {std::pair{nlohmann::json(nullptr), std::string("null")},
+        std::pair{nlohmann::json{{"a", 1}}, std::string(R"({"a":1})")}}) {
+    nlohmann::json run = nlohmann::json::parse(ehlsim::testing::minimal_run_json());
+    run["parameters"]["spike"]["filter"] = odd;
+    write_file(dir / "empty" / "run.json", run.dump());
+    expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                     "cannot read '" + empty + "/run.json': parameters.spike.filter is " + shown +
+                         ", not the value of a setting (a number or a text)");
+  }
   // A link loop as RUN_DIR was named as the --out it defaults to.
   fs::create_symlink("loop2", dir / "loop1");
   fs::create_symlink("loop1", dir / "loop2");
@@ -681,10 +692,11 @@ TEST(Cli, SpikeOnABadRunDirectory) {
   // ... also a value that is no TOML value (it was told "(--set)").
   write_file(dir / "empty" / "run.json",
              ehlsim::testing::minimal_run_json(
-                 {{"parameters", {{"spike", {{"smoothing_points", {{"a", 1}}}}}}}}));
+                 {{"parameters", {{"spike", {{"smoothing_points", 18446744073709551615U}}}}}}));
   expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
-                   "spike.smoothing_points = \"{\"a\":1}\": must be an integer in [1, "
-                   "2147483647] (parameters of '" +
+                   "spike.smoothing_points = 18446744073709551615: is beyond the range of an "
+                   "integer (magnitudes up to 9223372036854775807; a larger number is written "
+                   "with an exponent, such as 1e30) (parameters of '" +
                        empty + "/run.json')");
   write_file(dir / "empty" / "run.json", kMinimalRun);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set spike.filter=y"),

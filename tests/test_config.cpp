@@ -400,6 +400,20 @@ TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
       set_error({"case.M=1e400"}),
       "case.M = 1e400: is beyond the range of a double (magnitudes up to 1.79769e+308) (--set)");
   EXPECT_EQ(set_error({"case.M=1e400x"}), "case.M = \"1e400x\": must be a number > 0 (--set)");
+  // An integer beyond 64 bits, which TOML refuses too: it was shown quoted,
+  // as if it were text.
+  const std::string too_large =
+      ": is beyond the range of an integer (magnitudes up to 9223372036854775807; a larger number "
+      "is written with an exponent, such as 1e30) (--set)";
+  EXPECT_EQ(set_error({"grid.points=99999999999999999999"}),
+            "grid.points = 99999999999999999999" + too_large);
+  EXPECT_EQ(set_error({"case.L=-9223372036854775809"}),
+            "case.L = -9223372036854775809" + too_large);
+  EXPECT_EQ(set_error({"case.L=-9223372036854775808"}),
+            "case.L = -9223372036854775808: must be >= 0 (--set)");
+  EXPECT_EQ(set_error({"grid.points=0099"}),
+            "grid.points = \"0099\": must be an integer 2^k + 1 "
+            "between 9 and 4097 (--set)");
   TempDir dir;
   const fs::path file = write_file(dir / "tiny.toml",
                                    "[time]\nT_end = 1.0 # a run\n[output]\nsnapshot_times = "

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -471,6 +472,19 @@ bool overflows(const std::string& literal) {
   return errno == ERANGE && std::isinf(v) && end == literal.c_str() + literal.size();
 }
 
+/// Whether `literal` is a decimal integer beyond 64 bits
+/// (18446744073709551615): TOML refuses to read it, and it was shown quoted,
+/// as if it were text.
+bool overflows_integer(const std::string& literal) {
+  const std::size_t digits = literal.find_first_not_of("+-") == 1 ? 1 : 0;
+  if (literal.size() <= digits ||
+      literal.find_first_not_of("0123456789", digits) != std::string::npos)
+    return false;
+  errno = 0;
+  (void)std::strtoll(literal.c_str(), nullptr, 10);
+  return errno == ERANGE;
+}
+
 [[noreturn]] void fail_underflow(const std::string& key, std::string_view literal,
                                  const std::string& origin) {
   fail_value(key, std::string(literal),
@@ -649,6 +663,13 @@ void apply_override(toml::table& root, const std::string& assignment, std::strin
   if (parsed && (parsed->size() != 1 || !parsed->contains("v"))) parsed.reset();
   if (parsed && underflowed(*parsed->get("v"), value))
     fail_underflow(key, value, std::string(origin));
+  if (!parsed && overflows_integer(value)) {
+    fail_value(key, value,
+               fmt::format("is beyond the range of an integer (magnitudes up to {}; a larger "
+                           "number is written with an exponent, such as 1e30)",
+                           std::numeric_limits<std::int64_t>::max()),
+               std::string(origin));
+  }
   if (!parsed && overflows(value)) {
     fail_value(key, value,
                fmt::format("is beyond the range of a double (magnitudes up to {:g})",

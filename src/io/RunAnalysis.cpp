@@ -73,8 +73,16 @@ std::vector<std::string> recorded_spike_settings(const nlohmann::json& run,
                       run_file.string(), key));
   }
   std::vector<std::string> out;
-  for (auto it = settings.begin(); it != settings.end(); ++it)
+  for (auto it = settings.begin(); it != settings.end(); ++it) {
+    // Neither is a TOML value: read as text, they were shown quoted ("null").
+    if (it.value().is_null() || it.value().is_structured())
+      throw ConfigError(fmt::format(
+          "cannot read '{}': parameters.spike.{} is {}, not the value of a setting (a number "
+          "or a text)",
+          run_file.string(), echo_input(it.key()),
+          it.value().is_null() ? "null" : echo_input(it.value().dump())));
     out.push_back(fmt::format("{}{}={}", kSpikeSection, it.key(), it.value().dump()));
+  }
   return out;
 }
 
