@@ -174,6 +174,19 @@ def profile_figure(case, times, name, title, out, xlim=None):
     write_csv(os.path.join(out, f"{name}.csv"), ["T", "R", "P_filtered"], rows)
 
 
+def fig3_spacing(live, start):
+    """The spacing of fig3's profiles for its title: the paper's where the
+    snapshots are fine enough for it, else what they allow (a coarse grid's
+    2 steps are longer than the paper's 20)."""
+    after = [t for t in live if t >= start]
+    if len(after) < 2:
+        return f"every $\\Delta T$ = {FIG3_INTERVAL:.4f}"
+    apart = sorted(b - a for a, b in zip(after, after[1:]))[(len(after) - 1) // 2]  # the median
+    if apart <= FIG3_INTERVAL / 2:
+        return f"every $\\Delta T$ = {FIG3_INTERVAL:.4f}"
+    return f"nearest to every $\\Delta T$ = {FIG3_INTERVAL:.4f} (the snapshots are {apart:.4f} apart)"
+
+
 def fig3_fig4(case, out):
     dT = case["dT"]
     live = pressurized_times(case)
@@ -191,8 +204,8 @@ def fig3_fig4(case, out):
         target += FIG3_INTERVAL
     if live[-1] not in fig3:
         fig3.append(live[-1])  # the last profile before lift-off, as the paper's 4.365
-    profile_figure(case, fig3, "fig3", f"M = {case['M']}, L = 10: P(R) every dT = {FIG3_INTERVAL:.4f} "
-                   f"from T = {start:.3f} to lift-off", out)
+    profile_figure(case, fig3, "fig3", f"M = {case['M']}, L = 10: P(R) from T = {start:.3f} to lift-off,\n"
+                   f"{fig3_spacing(live, start)}", out)
     last = live[-1]
     s_last = step_of(last, dT)
     fig4 = [t for t in live if t >= last - FIG4_WINDOW - 1e-9 and (s_last - step_of(t, dT)) % FIG4_EVERY_STEPS == 0]
