@@ -656,6 +656,28 @@ TEST(RunawayInputs, AStartTooSlowOrTooFarIsRefusedBeforeAnyWork) {
   expect_refused_at_once("--set time.T_end=1e9",
                          "time.T_end = 1000000000: needs 8.53e+10 time steps of time.dT = "
                          "0.01172; at most 10000000 are allowed (--set)");
+  // A short time step given: it was the default time.V0 or time.T_end that
+  // was named, as if the user had to change what they had not set.
+  expect_refused_at_once(
+      "--set time.dT=1e-6",
+      "time.dT = 1e-06: a run until lift-off from time.Delta0 = 1 at time.V0 = 1 may need "
+      "1.69e+07 time steps (the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); "
+      "at most 10000000 are allowed: use a longer time.dT, or set time.T_end or time.max_steps "
+      "(--set)");
+  expect_refused_at_once("--set time.dT=1e-8 --set time.T_end=1",
+                         "time.dT = 1e-08: needs 1e+08 time steps to time.T_end = 1; at most "
+                         "10000000 are allowed: use a longer time.dT or an earlier time.T_end "
+                         "(--set)");
+  // One so short that the 1/dT terms overflow: "the multigrid iteration
+  // diverged" at step 1 (exit 1), as if the solver had failed.
+  for (const char* dT : {"1e-308", "1e-320", "1e-13"})
+    expect_refused_at_once(std::string("--set time.dT=") + dT + " --set time.max_steps=3",
+                           std::string("time.dT = ") + dT + ": must be >= 1e-12 (--set)");
+  expect_refused_at_once(
+      "--set body.elastic=false --set time.Delta0=1e-26 --set grid.half_width=1e-12 --set "
+      "time.T_end=1e-12",
+      "grid.half_width = 1e-12: gives a mesh, and so a default time.dT, of 7.812e-15; it must be "
+      ">= 1e-12: set time.dT or use a coarser mesh (--set)");
 }
 
 TEST(RunawayInputs, ASlowStartToAGivenTimeRunsWithABoundedDryReference) {

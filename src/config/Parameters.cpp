@@ -138,9 +138,16 @@ void add_physical_case_parameters(std::vector<ParameterSpec>& r) {
                    "ambient lubricant density (recorded only: the model uses rho / rho0)"));
 }
 
+/// The shortest time step.  kMaxTimeSteps steps of it cover 1e-5 of time,
+/// nothing of an impact (its dry contact lasts 3.2181 V0^-0.2); and far below
+/// it the discrete equations' 1/dT terms overflow: time.dT = 1e-308 ended
+/// with "the multigrid iteration diverged" at step 1, as if the solver had failed.
+constexpr double kShortestTimeStep = 1e-12;
+
 /// [time]: step, end, step cap and the start of the ball.
 void add_time_parameters(std::vector<ParameterSpec>& r) {
-  r.push_back(real("time.dT", kNoDefault, "the mesh size", above(0), kUnbounded, "",
+  r.push_back(real("time.dT", kNoDefault, "the mesh size", at_least(kShortestTimeStep), kUnbounded,
+                   "",
                    "time step; at most a quarter of an elastic ball's dry contact, 3.2181 "
                    "time.V0^(-1/5) long"));
   {
@@ -496,14 +503,30 @@ void check_dry_contact_resolved(const Inputs& in, const ImpactConfig& c) {
                       dT, largest_dT, why));
 }
 
+/// The mesh that gives the default time.dT must not be shorter than that.
+void check_time_step_not_negligible(const Inputs& in, const ImpactConfig& c) {
+  const double dT = effective_time_step(c);
+  if (dT >= kShortestTimeStep) return;  // a time.dT given is checked by its range
+  in.fail(mesh_key(in),
+          fmt::format("gives a mesh, and so a default time.dT, of {:.4g}; it must be >= {:g}: "
+                      "set time.dT or use a coarser mesh",
+                      dT, kShortestTimeStep));
+}
+
 /// A run of more than kMaxTimeSteps steps is refused before it starts: a
 /// start far away or slow needs billions of steps (and an int overflows).
+/// The message names time.dT where the user gave it, else the end or the start.
 void check_step_count(const Inputs& in, const ImpactConfig& c) {
   const double dT = effective_time_step(c);
   const double limit = kMaxTimeSteps;
+  const bool dT_given = in.has("time.dT");
   if (std::isfinite(c.T_end)) {
     const double steps = std::ceil(c.T_end / dT);
     if (steps <= limit) return;
+    if (dT_given)
+      in.fail("time.dT", fmt::format("needs {:.3g} time steps to time.T_end = {:g}; at most {} are "
+                                     "allowed: use a longer time.dT or an earlier time.T_end",
+                                     steps, c.T_end, kMaxTimeSteps));
     in.fail("time.T_end",
             fmt::format("needs {:.3g} time steps of time.dT = {:.4g}; at most {} are allowed",
                         steps, dT, kMaxTimeSteps));
@@ -511,14 +534,23 @@ void check_step_count(const Inputs& in, const ImpactConfig& c) {
   if (in.has("time.max_steps")) return;  // within the registry's range
   const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
   if (steps <= limit) return;
+  const std::string cap = fmt::format(
+      "(the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} are "
+      "allowed",
+      kMaxTimeSteps);
+  if (dT_given)
+    in.fail("time.dT",
+            fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} may need "
+                        "{:.3g} time steps {}: use a longer time.dT, or set time.T_end or "
+                        "time.max_steps",
+                        c.Delta0, c.V0, steps, cap));
   const bool slow = in.has("time.V0") || !in.has("time.Delta0");
   const std::string start = slow ? fmt::format("from time.Delta0 = {:g}", c.Delta0)
                                  : fmt::format("at time.V0 = {:g}", c.V0);
   in.fail(slow ? "time.V0" : "time.Delta0",
-          fmt::format("a run until lift-off {} may need {:.3g} time steps of dT = {:.4g} (the "
-                      "default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
-                      "are allowed: start closer or faster, or set time.T_end or time.max_steps",
-                      start, steps, dT, kMaxTimeSteps));
+          fmt::format("a run until lift-off {} may need {:.3g} time steps of dT = {:.4g} {}: "
+                      "start closer or faster, or set time.T_end or time.max_steps",
+                      start, steps, dT, cap));
 }
 
 void assemble_rest(const Inputs& in, ImpactConfig& c) {
@@ -548,6 +580,7 @@ void assemble_rest(const Inputs& in, ImpactConfig& c) {
   check_undeformed_gap(in, c);
   check_dry_contact_resolved(in, c);
   check_mesh_resolves_the_film(in, c);
+  check_time_step_not_negligible(in, c);
   check_step_count(in, c);
 }
 
