@@ -104,7 +104,7 @@ int run_rolling(const RollingOptions& options) {
   const nlohmann::json invocation = cli::invocation_json(options, memory_json(memory));
   write_rolling_run(run_dir.staging(), config, result, invocation, wall);
   try {
-    run_dir.publish(false);
+    run_dir.publish();
   } catch (const PublishInterrupted& e) {
     std::fprintf(stderr, "ehlsim: interrupted by %s; nothing was written to %s\n",
                  signal_name(e.signal).c_str(), cli::printable(options.out_dir).c_str());

@@ -267,18 +267,20 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
     // step, snapshot times already reached).
     spike.resume_after(checkpoint->state.ball.T, checkpoint->state.P);
     output.resume_after(checkpoint->state.ball.T);
+    if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
     problem.restart_from(std::move(checkpoint->state));
   }
   // Checkpoints go to DIR.checkpoint.nc: DIR keeps the earlier run's until this one publishes.
   problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
     write_checkpoint(run_dir.checkpoint(), state, parameters);
-    if (!kept.written && config.checkpoint_every > 0)
-      output.add_file("checkpoint", kCheckpointFile);
+    if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
     kept = {state.step, run_dir.checkpoint(), true, state.ball.T};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  run_dir.publish(config.checkpoint_every > 0 && kept.written,
+  // The last checkpoint goes along: this run's, or the one it resumed from
+  // when it ended before writing one (the uninterrupted run has that one).
+  run_dir.publish(config.checkpoint_every > 0 ? kept.path : std::filesystem::path(),
                   resumes_from(options, run_dir.checkpoint()));
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());

@@ -515,6 +515,32 @@ TEST(Cli, RestartFromACheckpoint) {
   EXPECT_FALSE(fs::exists(dir / "capped"));
 }
 
+TEST(Cli, ARestartThatEndsBeforeItsNextCheckpointKeepsTheOneItResumedFrom) {
+  // It removed DIR.checkpoint.nc, the file it resumed from, and published DIR
+  // without a checkpoint.nc: the uninterrupted run has that checkpoint.
+  TempDir dir;
+  const std::string args = "--set output.checkpoint_every=4";  // lift-off 2 steps after one
+  ASSERT_EQ(tiny_run(dir / "full", args).exit_code, 0);
+  const fs::path resumed_from = dir / "again.checkpoint.nc";
+  fs::copy_file(dir / "full" / "checkpoint.nc", resumed_from);
+  Result r = tiny_run(dir / "again", args + " --restart " + quote(resumed_from.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_file(dir / "again" / "checkpoint.nc"), read_file(dir / "full" / "checkpoint.nc"));
+  EXPECT_FALSE(fs::exists(resumed_from));  // it went along
+  const nlohmann::json run = nlohmann::json::parse(read_file(dir / "again" / "run.json"));
+  EXPECT_EQ(run.at("files").at("checkpoint"), "checkpoint.nc");
+  // Resumed from the checkpoint in DIR, into DIR: it was deleted with the earlier run.
+  r = tiny_run(dir / "full",
+               args + " --restart " + quote((dir / "full" / "checkpoint.nc").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_file(dir / "full" / "checkpoint.nc"), read_file(dir / "again" / "checkpoint.nc"));
+  // Without checkpoints asked for, none is published.
+  r = tiny_run(dir / "none", "--restart " + quote((dir / "full" / "checkpoint.nc").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "none" / "checkpoint.nc"));
+  EXPECT_TRUE(fs::exists(dir / "full" / "checkpoint.nc"));
+}
+
 TEST(Cli, RestartRefusesADamagedCheckpoint) {
   // The probes of issue 10: 16 flipped bytes, T = NaN, step = INT_MAX.
   TempDir dir;

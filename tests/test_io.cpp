@@ -1506,7 +1506,7 @@ TEST(RunDirectory, PublishesIntoAMissingDirectory) {
     EXPECT_EQ(run.checkpoint(), dir / "run.checkpoint.nc");
     write_file(run.staging() / "run.json", "new\n");
     EXPECT_FALSE(fs::exists(target));  // nothing visible before publish
-    run.publish(false);
+    run.publish();
   }
   EXPECT_EQ(read_file(target / "run.json"), "new\n");
   EXPECT_EQ(names_in(dir.path()), std::set<std::string>{"run"});  // no staging, no lock
@@ -1521,7 +1521,7 @@ TEST(RunDirectory, ReplacesAnEarlierRunAsAWhole) {
     RunDirectory run(target);
     write_file(run.staging() / "run.json", "new\n");
     EXPECT_EQ(read_file(target / "timeseries.csv"), "old\n");  // the earlier run until publish
-    run.publish(true);
+    run.publish(run.checkpoint());
   }
   // The earlier run's files are gone (no stale timeseries.csv); the checkpoint
   // of the new run moved in.
@@ -1667,7 +1667,7 @@ TEST(RunDirectory, ARunIntoASymbolicLinkReplacesTheDirectoryItPointsTo) {
     EXPECT_EQ(run.target(), dir / "link");                    // messages name DIR as given
     EXPECT_EQ(run.checkpoint(), dir / "real.checkpoint.nc");  // beside the data, not the link
     write_file(run.staging() / "run.json", "new\n");
-    run.publish(false);
+    run.publish();
   }
   EXPECT_TRUE(fs::is_symlink(dir / "link"));
   EXPECT_EQ(names_in(real), std::set<std::string>{"run.json"});
@@ -1680,7 +1680,7 @@ TEST(RunDirectory, ARunIntoASymbolicLinkReplacesTheDirectoryItPointsTo) {
   {
     RunDirectory run(dir / "chain");
     write_file(run.staging() / "run.json", "later\n");
-    run.publish(false);
+    run.publish();
   }
   EXPECT_TRUE(fs::is_symlink(dir / "chain"));
   EXPECT_TRUE(fs::is_symlink(dir / "next"));

@@ -735,8 +735,8 @@ void RunDirectory::refuse_foreign_checkpoint() const {
   }
 }
 
-void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
-  if (with_checkpoint) link_or_copy(checkpoint(), staging_ / kCheckpointFile);
+void RunDirectory::publish(const fs::path& carried_checkpoint, bool resumed_from_checkpoint) {
+  if (!carried_checkpoint.empty()) link_or_copy(carried_checkpoint, staging_ / kCheckpointFile);
   if (amend_) {
     // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
     // it only against other ehlsim processes).
@@ -756,7 +756,7 @@ void RunDirectory::publish(bool with_checkpoint, bool resumed_from_checkpoint) {
   // the one it resumed.  Any other stays: an interrupted run's, which a run
   // without checkpoints or a rolling run into DIR deleted.
   std::error_code ec;
-  if (with_checkpoint || resumed_from_checkpoint) fs::remove(checkpoint(), ec);
+  if (carried_checkpoint == checkpoint() || resumed_from_checkpoint) fs::remove(checkpoint(), ec);
 }
 
 void RunDirectory::refuse_mount_in_staging() const {

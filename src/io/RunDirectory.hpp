@@ -99,16 +99,17 @@ class RunDirectory {
   /// file there was overwritten.
   void refuse_foreign_checkpoint() const;
 
-  /// Makes the staged run DIR, with `checkpoint()` moved to DIR/checkpoint.nc
-  /// when `with_checkpoint`; `checkpoint()` is removed then, or when the run
-  /// completed the state it resumed from it (`resumed_from_checkpoint`), and
-  /// else left as it is.  Throws std::runtime_error when a file cannot be
-  /// synced or renamed, or when DIR changed meanwhile (a foreign file in it,
-  /// an entry of an amended DIR added, removed or replaced); PublishInterrupted
-  /// when SIGINT, SIGTERM or SIGHUP came before the swap (io/Interrupt.hpp).
-  /// DIR then still holds the earlier run.  The swap is the commit point: a
-  /// signal after it does not undo the published run.
-  void publish(bool with_checkpoint = false, bool resumed_from_checkpoint = false);
+  /// Makes the staged run DIR, with the file `carried_checkpoint` (the run's
+  /// last checkpoint: `checkpoint()`, or the one it resumed from when it
+  /// wrote none; empty: none) as DIR/checkpoint.nc.  `checkpoint()` is removed
+  /// when it went along, or when the run completed the state it resumed from
+  /// it (`resumed_from_checkpoint`), and else left as it is.  Throws std::runtime_error when a file
+  /// cannot be synced or renamed, or when DIR changed meanwhile (a foreign file in it, an entry of
+  /// an amended DIR added, removed or replaced); PublishInterrupted when SIGINT, SIGTERM or SIGHUP
+  /// came before the swap (io/Interrupt.hpp). DIR then still holds the earlier run.  The swap is
+  /// the commit point: a signal after it does not undo the published run.
+  void publish(const std::filesystem::path& carried_checkpoint = {},
+               bool resumed_from_checkpoint = false);
   [[nodiscard]] bool published() const { return published_; }
 
  private:
