@@ -357,11 +357,17 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
                       "time.T_end");
   // Likewise a cap the checkpoint has reached (time.max_steps = 10 from step 85).
   const int done = checkpoint->state.step;
-  if (!std::isfinite(config.T_end) && config.max_steps > 0 && config.max_steps <= done)
-    throw ConfigError(fmt::format("time.max_steps = {}: must be more than the steps of checkpoint "
-                                  "'{}', {}",
-                                  config.max_steps, options.restart_file, done),
-                      "time.max_steps");
+  if (!std::isfinite(config.T_end) && config.max_steps > 0 && config.max_steps <= done) {
+    // The default cap was named as if the user had set it, with no way on.
+    const bool by_default = config.max_steps == default_max_steps(config.Delta0, config.V0,
+                                                                  effective_time_step(config));
+    throw ConfigError(
+        fmt::format("time.max_steps = {}{}: must be more than the steps of checkpoint "
+                    "'{}', {}{}",
+                    config.max_steps, by_default ? " (the default)" : "", options.restart_file,
+                    done, by_default ? ": set a larger time.max_steps, or a time.T_end" : ""),
+        "time.max_steps");
+  }
   return kExitOk;
 }
 

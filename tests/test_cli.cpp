@@ -513,6 +513,17 @@ TEST(Cli, RestartFromACheckpoint) {
   EXPECT_FALSE(fs::exists(dir / "third"));
   EXPECT_FALSE(fs::exists(dir / "fourth"));
   EXPECT_FALSE(fs::exists(dir / "capped"));
+  // The default cap (4 dry lift-off times, 180 steps here), which the user did
+  // not set, was named as if they had, with no way on.
+  const std::string at_rest = "--set body.elastic=false --set case.M=1 --set case.L=0 ";
+  ASSERT_EQ(tiny_run(dir / "long", at_rest + "--set time.T_end=30 --set output.checkpoint_every=50")
+                .exit_code,
+            0);
+  const fs::path late = dir / "long" / "checkpoint.nc";
+  expect_bad_input(tiny_run(dir / "on", at_rest + "--restart " + quote(late.string())),
+                   "time.max_steps = 180 (the default): must be more than the steps of checkpoint "
+                   "'" +
+                       late.string() + "', 320: set a larger time.max_steps, or a time.T_end");
 }
 
 TEST(Cli, ARestartThatEndsBeforeItsNextCheckpointKeepsTheOneItResumedFrom) {
