@@ -550,6 +550,20 @@ TEST(Cli, ARestartThatEndsBeforeItsNextCheckpointKeepsTheOneItResumedFrom) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_FALSE(fs::exists(dir / "none" / "checkpoint.nc"));
   EXPECT_TRUE(fs::exists(dir / "full" / "checkpoint.nc"));
+  // A path with a backslash, which libnetcdf cannot open ("NetCDF: HDF error",
+  // as if the file were damaged), is refused as such; by a relative link
+  // without one it is read, and published as the file, not as the link.
+  const fs::path odd = dir / "saved\\one.nc";
+  fs::copy_file(dir / "full" / "checkpoint.nc", odd);
+  expect_bad_input(tiny_run(dir / "odd", args + " --restart " + quote(odd.string())),
+                   "cannot read checkpoint '" + odd.string() +
+                       "': the path holds a backslash, which the NetCDF library reads as a "
+                       "directory separator: rename it, or give it by a link whose path has none");
+  fs::create_symlink(odd.filename(), dir / "plain.nc");
+  r = tiny_run(dir / "linked", args + " --restart " + quote((dir / "plain.nc").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(fs::is_symlink(dir / "linked" / "checkpoint.nc"));
+  EXPECT_EQ(read_file(dir / "linked" / "checkpoint.nc"), read_file(odd));
 }
 
 TEST(Cli, RestartRefusesADamagedCheckpoint) {

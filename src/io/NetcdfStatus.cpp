@@ -51,6 +51,14 @@ void check_netcdf_write(int status, std::string_view action, const std::filesyst
 void require_netcdf4_file(const std::filesystem::path& path, std::string_view action) {
   // The HDF5 format signature: the first 8 bytes of every NetCDF-4 file ehlsim writes.
   constexpr std::array<char, 8> kSignature = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  // libnetcdf reads a backslash as a directory separator: "NetCDF: HDF error",
+  // as if the file were damaged.
+  if (path.string().find('\\') != std::string::npos) {
+    throw std::runtime_error(fmt::format(
+        "cannot {} '{}': the path holds a backslash, which the NetCDF library reads as a "
+        "directory separator: rename it, or give it by a link whose path has none",
+        action, path.string()));
+  }
   // Opening a FIFO would wait for a writer, in HDF5 beyond the reach of a signal.
   std::error_code ec;
   const std::filesystem::file_status status = std::filesystem::status(path, ec);

@@ -220,8 +220,11 @@ void remove_debris(const fs::path& target) {
   }
 }
 
+/// `to` as another name of the file `from` (a symbolic link followed: a
+/// restart file given by a relative link was published as that link,
+/// dangling in DIR), or a copy of it where no link can be made.
 void link_or_copy(const fs::path& from, const fs::path& to) {
-  if (link(from.c_str(), to.c_str()) == 0) return;
+  if (linkat(AT_FDCWD, from.c_str(), AT_FDCWD, to.c_str(), AT_SYMLINK_FOLLOW) == 0) return;
   std::error_code ec;
   fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
   if (ec) {
