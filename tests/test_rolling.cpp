@@ -733,6 +733,38 @@ TEST(Rolling, ARunThatStalledIsNotToldThatMoreCyclesMayConvergeIt) {
             std::string::npos)
       << message;
   EXPECT_EQ(message.find("may converge it"), std::string::npos) << message;
+  EXPECT_NE(message.find("is at round-off: is solver.tolerance below what the residual can "
+                         "reach?"),
+            std::string::npos)
+      << message;
+  // A Newton step of H0 that does nothing holds the force error at -0.10,
+  // the residual at round-off: not the tolerance's fault.
+  const std::string held = failure_message(
+      load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=1e-300"}));
+  EXPECT_NE(held.find("more cycles will not converge it; does a solver.* setting (such as "
+                      "solver.h0_relaxation), or an extreme parameter, hold it?"),
+            std::string::npos)
+      << held;
+}
+
+TEST(Rolling, ARunThatConvergesSlowlyIsToldThatMoreCyclesMayConvergeIt) {
+  // A hundredth of the Newton step of H0 takes about 1 % of the force error
+  // per cycle, steadily: it was told it had stalled and that more cycles
+  // would not converge it, and 960 cycles do.
+  RollingConfig config =
+      load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=0.01"});
+  const std::string message = failure_message(config);
+  EXPECT_NE(message.find("; it was still converging, slowly (max(residual, |force error|) fell in "
+                         "each of its last 20 cycles, by 0.99 per cycle): more cycles "
+                         "(solver.max_cycles) may converge it"),
+            std::string::npos)
+      << message;
+  config =
+      load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=0.01",
+                                         "solver.max_cycles=3000", "solver.fallback_update=false"});
+  RollingProblem problem(config);
+  const RollingResult result = problem.run();
+  EXPECT_LT(result.history.back().residual, config.tolerance);  // run() throws otherwise
 }
 
 TEST(Rolling, ARunOutOfCyclesSolvesAgainWithTheOtherUpdate) {

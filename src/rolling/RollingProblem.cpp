@@ -8,6 +8,7 @@
 #include <iterator>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -704,17 +705,61 @@ std::string update_text(bool each_colour) {
 constexpr int kStalledRunCycles = 20;
 constexpr double kStalledRunFactor = 0.5;
 
+/// The measure a run out of cycles is judged by.
+double stall_measure(const RollingCycle& c) {
+  return std::max(c.residual, std::abs(c.force_error));
+}
+
+/// The last kStalledRunCycles cycles of the last attempt on the finest grid
+/// of `history`, or nothing when it has fewer.
+std::optional<std::pair<const RollingCycle*, const RollingCycle*>> last_window(
+    const std::vector<RollingCycle>& history) {
+  if (history.size() <= kStalledRunCycles || history.back().cycle <= kStalledRunCycles)
+    return std::nullopt;
+  const RollingCycle& last = history.back();
+  const RollingCycle& before = history[history.size() - 1 - kStalledRunCycles];
+  if (before.points != last.points || before.attempt != last.attempt) return std::nullopt;
+  return std::pair{&before, &last};
+}
+
+/// The mean factor per cycle by which the measure fell over the last window
+/// when every cycle of it lowered the measure (slow but steady: a small
+/// solver.h0_relaxation takes about 1 % of the force error per cycle, and was
+/// told that more cycles would not converge it), else nothing.
+std::optional<double> steady_rate(const std::vector<RollingCycle>& history) {
+  const auto window = last_window(history);
+  if (!window) return std::nullopt;
+  const std::size_t end = history.size();
+  for (std::size_t i = end - kStalledRunCycles; i < end; ++i)
+    if (!(stall_measure(history[i]) < stall_measure(history[i - 1]))) return std::nullopt;
+  return std::pow(stall_measure(*window->second) / stall_measure(*window->first),
+                  1.0 / kStalledRunCycles);
+}
+
 /// True when the last attempt on the finest grid of `history` stalled.
 bool stalled(const std::vector<RollingCycle>& history) {
-  if (history.size() <= kStalledRunCycles) return false;
-  const RollingCycle& last = history.back();
-  const auto measure = [](const RollingCycle& c) {
-    return std::max(c.residual, std::abs(c.force_error));
-  };
-  if (last.cycle <= kStalledRunCycles) return false;
-  const RollingCycle& before = history[history.size() - 1 - kStalledRunCycles];
-  if (before.points != last.points || before.attempt != last.attempt) return false;
-  return !(measure(last) < kStalledRunFactor * measure(before));
+  const auto window = last_window(history);
+  return window &&
+         !(stall_measure(*window->second) < kStalledRunFactor * stall_measure(*window->first));
+}
+
+/// A measure at round-off: solver.tolerance = 1e-300 on 33^2 sat at 2.7e-16.
+constexpr double kRoundOffResidual = 1e-13;
+
+/// Why a stalled run stalled, as far as its last cycle tells.
+std::string stall_hint(const std::vector<RollingCycle>& history) {
+  const std::string stalled_text = fmt::format(
+      "; it stalled (max(residual, |force error|) fell by less than {:g} times in its last {} "
+      "cycles): more cycles will not converge it",
+      1.0 / kStalledRunFactor, kStalledRunCycles);
+  if (stall_measure(history.back()) < kRoundOffResidual)
+    return stalled_text + fmt::format(
+                              "; its residual, {:.2g}, is at round-off: is solver.tolerance below "
+                              "what the residual can reach?",
+                              history.back().residual);
+  return stalled_text +
+         "; does a solver.* setting (such as solver.h0_relaxation), or an extreme parameter, hold "
+         "it?";
 }
 
 /// The largest L at which every elastic contact of the grid M in {2, 5, 10,
@@ -745,12 +790,12 @@ std::string beyond_converged_L_hint(const RollingConfig& c) {
 /// more cycles will not help, when the run stalled (`history`).
 std::string relaxation_hint(const RollingConfig& c, bool other_update_tried,
                             const std::vector<RollingCycle>& history) {
-  if (stalled(history))
+  if (const std::optional<double> rate = steady_rate(history); rate && *rate < 1.0)
     return fmt::format(
-        "; it stalled (max(residual, |force error|) fell by less than {:g} times in its last {} "
-        "cycles): more cycles will not converge it; is solver.tolerance below what the residual "
-        "can reach (round-off, about 1e-16), or does a solver.* setting hold it?",
-        1.0 / kStalledRunFactor, kStalledRunCycles);
+        "; it was still converging, slowly (max(residual, |force error|) fell in each of its last "
+        "{} cycles, by {:.3g} per cycle): more cycles (solver.max_cycles) may converge it",
+        kStalledRunCycles, *rate);
+  if (stalled(history)) return stall_hint(history);
   if (other_update_tried) return "; more cycles (solver.max_cycles) may converge it";
   const bool each_colour = c.relaxation.deformation_each_colour;
   return fmt::format(
