@@ -635,25 +635,11 @@ toml::table parse_config_file(const std::filesystem::path& path) {
   return root;
 }
 
-/// Puts one `section.name=value` override into the tree.
-void apply_override(toml::table& root, const std::string& assignment, std::string_view origin,
-                    std::string_view file) {
-  const std::size_t eq = assignment.find('=');
-  const auto trim = [](std::string_view s) {
-    constexpr std::string_view kSpace = " \t";
-    const std::size_t b = s.find_first_not_of(kSpace);
-    if (b == std::string_view::npos) return std::string();
-    return std::string(s.substr(b, s.find_last_not_of(kSpace) - b + 1));
-  };
-  const std::string key =
-      eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
-  if (key.empty()) {
-    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20",
-                                  echo_input(assignment)));
-  }
-  const std::string value = trim(std::string_view(assignment).substr(eq + 1));
-
-  // The value in TOML syntax; anything that is not a single TOML value is a string.
+/// The value of an override `key=value` in TOML syntax, or nothing when it is
+/// not a single TOML value (then a string); a number that a double or a
+/// 64-bit integer cannot hold fails, naming `key`.
+std::optional<toml::table> parse_override_value(const std::string& key, const std::string& value,
+                                                std::string_view origin) {
   std::optional<toml::table> parsed;
   try {
     parsed = toml::parse("v = " + value, origin);
@@ -676,7 +662,28 @@ void apply_override(toml::table& root, const std::string& assignment, std::strin
                            std::numeric_limits<double>::max()),
                std::string(origin));
   }
+  return parsed;
+}
 
+/// Puts one `section.name=value` override into the tree.
+void apply_override(toml::table& root, const std::string& assignment, std::string_view origin,
+                    std::string_view file) {
+  const std::size_t eq = assignment.find('=');
+  const auto trim = [](std::string_view s) {
+    constexpr std::string_view kSpace = " \t";
+    const std::size_t b = s.find_first_not_of(kSpace);
+    if (b == std::string_view::npos) return std::string();
+    return std::string(s.substr(b, s.find_last_not_of(kSpace) - b + 1));
+  };
+  const std::string key =
+      eq == std::string::npos ? std::string() : trim(std::string_view(assignment).substr(0, eq));
+  if (key.empty()) {
+    throw ConfigError(fmt::format("--set '{}': expected KEY=VALUE, e.g. --set case.M=20",
+                                  echo_input(assignment)));
+  }
+  const std::string value = trim(std::string_view(assignment).substr(eq + 1));
+
+  std::optional<toml::table> parsed = parse_override_value(key, value, origin);
   const std::size_t dot = key.find('.');
   toml::table* target = &root;
   std::string name = key;
