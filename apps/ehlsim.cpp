@@ -216,6 +216,8 @@ struct KeptCheckpoint {
   std::filesystem::path path;
   bool written = false;  ///< by this run (DIR.checkpoint.nc)
   double T = 0.0;        ///< its time
+  /// An earlier run's DIR.checkpoint.nc that this run, keeping none, left as it was.
+  std::filesystem::path spared;
 };
 
 /// The last time step a run completed, for the message of a failure that
@@ -244,6 +246,24 @@ bool resumes_from(const ImpactOptions& options, const std::filesystem::path& che
          std::filesystem::equivalent(options.restart_file, checkpoint, ec);
 }
 
+/// Starts `problem`, `spike` and `output` where `checkpoint` left off, as the
+/// uninterrupted run goes on (V_s of the next step, snapshot times already
+/// reached).  A run that keeps checkpoints holds the one it resumes from in
+/// its staging directory at once, written from what was read: it is the run's
+/// last checkpoint until it writes one (the uninterrupted run has it), and its
+/// file may change or go meanwhile (it was published as it was then: another
+/// case's, a FIFO, or a run's failure at the end).
+void resume(Checkpoint& checkpoint, const ImpactConfig& config, const RunDirectory& run_dir,
+            ImpactProblem& problem, SpikeOutput& spike, RunOutput& output) {
+  spike.resume_after(checkpoint.state.ball.T, checkpoint.state.P);
+  output.resume_after(checkpoint.state.ball.T);
+  if (config.checkpoint_every > 0) {
+    write_checkpoint(run_dir.staging() / kCheckpointFile, checkpoint.state, checkpoint.parameters);
+    output.add_file("checkpoint", kCheckpointFile);
+  }
+  problem.restart_from(std::move(checkpoint.state));
+}
+
 /// Runs the case into the staging directory of `run_dir` and publishes it.
 /// Throws RunInterrupted after a signal, with the checkpoint written.
 RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
@@ -262,25 +282,25 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   if (!user_set_thread_count()) chain.push_back(&threads);
   ObserverChain observers(chain);
   ImpactProblem problem(config);
-  if (checkpoint) {
-    // The outputs go on as the uninterrupted run's would (V_s of the next
-    // step, snapshot times already reached).
-    spike.resume_after(checkpoint->state.ball.T, checkpoint->state.P);
-    output.resume_after(checkpoint->state.ball.T);
-    if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
-    problem.restart_from(std::move(checkpoint->state));
-  }
+  if (checkpoint) resume(*checkpoint, config, run_dir, problem, spike, output);
+  // Without checkpoints asked for, a signal's checkpoint would replace an
+  // earlier run's, perhaps the only copy of hours of work: that one stays.
+  const bool spare_earlier = config.checkpoint_every <= 0 &&
+                             std::filesystem::exists(run_dir.checkpoint()) &&
+                             !resumes_from(options, run_dir.checkpoint());
+  if (spare_earlier) kept.spared = run_dir.checkpoint();
   // Checkpoints go to DIR.checkpoint.nc: DIR keeps the earlier run's until this one publishes.
   problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
+    if (spare_earlier) return;
     write_checkpoint(run_dir.checkpoint(), state, parameters);
     if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
-    kept = {state.step, run_dir.checkpoint(), true, state.ball.T};
+    kept = {state.step, run_dir.checkpoint(), true, state.ball.T, {}};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  // The last checkpoint goes along: this run's, or the one it resumed from
-  // when it ended before writing one (the uninterrupted run has that one).
-  run_dir.publish(config.checkpoint_every > 0 ? kept.path : std::filesystem::path(),
+  // This run's last checkpoint goes along (a restart's first, from what it
+  // resumed, is in the staging directory already).
+  run_dir.publish(config.checkpoint_every > 0 && kept.written ? kept.path : std::filesystem::path(),
                   resumes_from(options, run_dir.checkpoint()));
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
@@ -380,6 +400,13 @@ int report_interrupted(const ImpactOptions& options, const KeptCheckpoint& kept,
                  "ehlsim: interrupted by %s before the first step ended; nothing was written to "
                  "%s\n",
                  signal_name(signal).c_str(), cli::printable(options.out_dir).c_str());
+  } else if (kept.step == 0 && !kept.spared.empty()) {
+    std::fprintf(stderr,
+                 "ehlsim: interrupted by %s after step %d (T = %.6g); no checkpoint was written "
+                 "('%s', an earlier run's, was left as it was: output.checkpoint_every = 0): run "
+                 "the command again\n",
+                 signal_name(signal).c_str(), e.step, e.T,
+                 cli::printable(kept.spared.string()).c_str());
   } else {
     std::fprintf(stderr, "ehlsim: interrupted by %s after step %d (T = %.6g); resume with: %s\n",
                  signal_name(signal).c_str(), e.step, e.T,
@@ -450,7 +477,7 @@ int run_impact(const ImpactOptions& options) {
   // from the one it started from.
   KeptCheckpoint kept;
   if (checkpoint)
-    kept = {checkpoint->state.step, options.restart_file, false, checkpoint->state.ball.T};
+    kept = {checkpoint->state.step, options.restart_file, false, checkpoint->state.ball.T, {}};
   LastStep last;
   try {
     simulate(options, config, checkpoint, *run_dir, invocation, kept, last);

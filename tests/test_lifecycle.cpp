@@ -895,6 +895,20 @@ TEST(Lifecycle, ARunLeavesACheckpointBesideItsDirectoryThatItDidNotWrite) {
   ASSERT_EQ(ehlsim("rolling --quiet --set grid.points=33 --out " + quote(run.string())).exit_code,
             0);
   EXPECT_TRUE(fs::exists(beside));
+  // Nor does a run without checkpoints that a signal stops: the checkpoint of
+  // its last step replaced the earlier run's without a word.
+  const Result stopped = interrupted_run(run, SIGTERM);
+  EXPECT_EQ(stopped.exit_code, 143);
+  EXPECT_TRUE(std::regex_match(
+      last_line(stopped.err),
+      std::regex(
+          "ehlsim: interrupted by SIGTERM after step [0-9]+ \\(T = [0-9.]+\\); no checkpoint "
+          "was written \\('" +
+          beside.string() +
+          "', an earlier run's, was left as it was: output.checkpoint_every = 0\\): run "
+          "the command again")))
+      << stopped.err;
+  EXPECT_EQ(read_file(beside), read_file(work / "earlier" / "checkpoint.nc"));
   // A run that writes checkpoints replaces it, and says so before it starts.
   const Result replacing = ehlsim(
       "impact --set grid.points=33 --set body.elastic=false --set time.T_end=0.2 --set "
@@ -1752,6 +1766,38 @@ TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
   EXPECT_EQ(read_file(run / "timeseries.csv"), read_file(plain / "timeseries.csv"));
   EXPECT_EQ(nlohmann::json::parse(read_file(run / "run.json"))["results"],
             nlohmann::json::parse(read_file(plain / "run.json"))["results"]);
+}
+
+TEST(Lifecycle, ARestartPublishesTheCheckpointItReadNotWhatItsFileBecame) {
+  // A restart that ends before its next checkpoint publishes the one it
+  // resumed from.  Taken from the file at the end, that was whatever the
+  // file had become: another case's checkpoint (exit 0), a FIFO, or nothing,
+  // and the finished run failed (exit 1).
+  TempDir work;
+  const std::vector<std::string> args = {"impact",         "--quiet", "--set",
+                                         "grid.points=33", "--set",   "output.checkpoint_every=4"};
+  std::vector<std::string> full = args;
+  full.insert(full.end(), {"--out", (work / "full").string()});
+  ASSERT_EQ(result_of(start(full, work / "full")).exit_code, 0);  // lift-off 2 steps after one
+  const std::string read = read_file(work / "full" / "checkpoint.nc");
+  for (const bool remove : {false, true}) {
+    const fs::path source = work / "resume.nc";
+    write_file(source, read);
+    const fs::path dir = work / (remove ? "removed" : "replaced");
+    std::vector<std::string> again = args;
+    again.insert(again.end(), {"--restart", source.string(), "--out", dir.string()});
+    const Child c = start(again, dir.string() + "-capture", "publish");
+    ASSERT_TRUE(wait_until_stopped(c));
+    fs::remove(source);
+    if (!remove) {
+      ASSERT_EQ(::mkfifo(source.c_str(), 0644), 0);
+    }
+    const Result r = resume(c, 0);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "checkpoint.nc")));
+    EXPECT_EQ(read_file(dir / "checkpoint.nc"), read);
+    fs::remove(source);
+  }
 }
 
 TEST(Lifecycle, ARunThatEndedInASubdirectoryMeanwhileIsNotDeleted) {

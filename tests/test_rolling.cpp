@@ -724,27 +724,27 @@ TEST(Rolling, RunningOutOfCyclesNamesWhatElseToTry) {
 
 TEST(Rolling, ARunThatStalledIsNotToldThatMoreCyclesMayConvergeIt) {
   // A tolerance below round-off: the residual sits at 2.7e-16 for 300
-  // cycles with either update, and more cycles were said to help.
+  // cycles with either update, and more cycles were said to help (and with
+  // solver.max_cycles = 120 on 65^2, by the noise of its last cycles).
   RollingConfig config =
       load_rolling_config(std::nullopt, {"grid.points=33", "solver.tolerance=1e-300"});
   const std::string message = failure_message(config);
-  EXPECT_NE(message.find("; it stalled (max(residual, |force error|) fell by less than 2 times in "
-                         "its last 20 cycles): more cycles will not converge it"),
-            std::string::npos)
-      << message;
   EXPECT_EQ(message.find("may converge it"), std::string::npos) << message;
-  EXPECT_NE(message.find("is at round-off: is solver.tolerance below what the residual can "
-                         "reach?"),
+  EXPECT_NE(message.find("; its max(residual, |force error|), 2.7e-16, is at round-off: "
+                         "solver.tolerance = 1e-300 is below what it can reach"),
             std::string::npos)
       << message;
   // A Newton step of H0 that does nothing holds the force error at -0.10,
-  // the residual at round-off: not the tolerance's fault.
-  const std::string held = failure_message(
-      load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=1e-300"}));
-  EXPECT_NE(held.find("more cycles will not converge it; does a solver.* setting (such as "
-                      "solver.h0_relaxation), or an extreme parameter, hold it?"),
-            std::string::npos)
-      << held;
+  // the residual at round-off: not the tolerance's fault.  One of 1e-9
+  // lowers it steadily, by 1e-9 per cycle: not "still converging".
+  for (const char* step : {"solver.h0_relaxation=1e-300", "solver.h0_relaxation=1e-9"}) {
+    const std::string held =
+        failure_message(load_rolling_config(std::nullopt, {"grid.points=33", step}));
+    EXPECT_NE(held.find("more cycles will not converge it; does a solver.* setting (such as "
+                        "solver.h0_relaxation), or an extreme parameter, hold it?"),
+              std::string::npos)
+        << held;
+  }
 }
 
 TEST(Rolling, ARunThatConvergesSlowlyIsToldThatMoreCyclesMayConvergeIt) {
@@ -755,8 +755,8 @@ TEST(Rolling, ARunThatConvergesSlowlyIsToldThatMoreCyclesMayConvergeIt) {
       load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=0.01"});
   const std::string message = failure_message(config);
   EXPECT_NE(message.find("; it was still converging, slowly (max(residual, |force error|) fell in "
-                         "each of its last 20 cycles, by 0.99 per cycle): more cycles "
-                         "(solver.max_cycles) may converge it"),
+                         "each of its last 20 cycles, by 0.9904 per cycle): at that rate about 662 "
+                         "more cycles would reach solver.tolerance (raise solver.max_cycles)"),
             std::string::npos)
       << message;
   config =

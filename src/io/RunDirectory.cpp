@@ -739,7 +739,11 @@ void RunDirectory::refuse_foreign_checkpoint() const {
 }
 
 void RunDirectory::publish(const fs::path& carried_checkpoint, bool resumed_from_checkpoint) {
-  if (!carried_checkpoint.empty()) link_or_copy(carried_checkpoint, staging_ / kCheckpointFile);
+  if (!carried_checkpoint.empty()) {
+    std::error_code ec;  // a restart's first checkpoint, the one it resumed from
+    fs::remove(staging_ / kCheckpointFile, ec);
+    link_or_copy(carried_checkpoint, staging_ / kCheckpointFile);
+  }
   if (amend_) {
     // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
     // it only against other ehlsim processes).

@@ -743,23 +743,47 @@ bool stalled(const std::vector<RollingCycle>& history) {
          !(stall_measure(*window->second) < kStalledRunFactor * stall_measure(*window->first));
 }
 
-/// A measure at round-off: solver.tolerance = 1e-300 on 33^2 sat at 2.7e-16.
+/// A measure at round-off: solver.tolerance = 1e-300 on 33^2 sat at 2.7e-16,
+/// where the last cycles' noise made it look converging or stalled by turns.
 constexpr double kRoundOffResidual = 1e-13;
 
-/// Why a stalled run stalled, as far as its last cycle tells.
-std::string stall_hint(const std::vector<RollingCycle>& history) {
-  const std::string stalled_text = fmt::format(
-      "; it stalled (max(residual, |force error|) fell by less than {:g} times in its last {} "
-      "cycles): more cycles will not converge it",
-      1.0 / kStalledRunFactor, kStalledRunCycles);
-  if (stall_measure(history.back()) < kRoundOffResidual)
-    return stalled_text + fmt::format(
-                              "; its residual, {:.2g}, is at round-off: is solver.tolerance below "
-                              "what the residual can reach?",
-                              history.back().residual);
-  return stalled_text +
-         "; does a solver.* setting (such as solver.h0_relaxation), or an extreme parameter, hold "
-         "it?";
+/// A run still converging steadily is told that more cycles may converge it
+/// when its rate would reach the tolerance within this many times
+/// solver.max_cycles more: a Newton step of H0 of 1e-9 lowered the force
+/// error by 1e-9 per cycle, steadily, and was told so ("by 1 per cycle").
+constexpr double kPromisingCyclesFactor = 10.0;
+
+/// The cycles the last cycle's measure needs to reach `tolerance` at the
+/// steady rate of `history`'s last window, if it has one.
+std::optional<double> cycles_to_converge(const std::vector<RollingCycle>& history,
+                                         double tolerance) {
+  const std::optional<double> rate = steady_rate(history);
+  if (!rate || !(*rate < 1.0)) return std::nullopt;
+  return std::log(tolerance / stall_measure(history.back())) / std::log(*rate);
+}
+
+/// What the last cycles of a run out of cycles tell, or "": at round-off,
+/// still converging (at what rate, how many more cycles), or stalled.
+std::string progress_hint(const RollingConfig& c, const std::vector<RollingCycle>& history) {
+  if (!history.empty() && stall_measure(history.back()) < kRoundOffResidual)
+    return fmt::format(
+        "; its max(residual, |force error|), {:.2g}, is at round-off: solver.tolerance = {:g} is "
+        "below what it can reach",
+        stall_measure(history.back()), c.tolerance);
+  if (const std::optional<double> more = cycles_to_converge(history, c.tolerance);
+      more && *more <= kPromisingCyclesFactor * c.max_cycles)
+    return fmt::format(
+        "; it was still converging, slowly (max(residual, |force error|) fell in each of its last "
+        "{} cycles, by {:.4g} per cycle): at that rate about {:.0f} more cycles would reach "
+        "solver.tolerance (raise solver.max_cycles)",
+        kStalledRunCycles, *steady_rate(history), std::ceil(*more));
+  if (stalled(history))
+    return fmt::format(
+        "; it stalled (max(residual, |force error|) fell by less than {:g} times in its last {} "
+        "cycles): more cycles will not converge it; does a solver.* setting (such as "
+        "solver.h0_relaxation), or an extreme parameter, hold it?",
+        1.0 / kStalledRunFactor, kStalledRunCycles);
+  return {};
 }
 
 /// The largest L at which every elastic contact of the grid M in {2, 5, 10,
@@ -790,12 +814,7 @@ std::string beyond_converged_L_hint(const RollingConfig& c) {
 /// more cycles will not help, when the run stalled (`history`).
 std::string relaxation_hint(const RollingConfig& c, bool other_update_tried,
                             const std::vector<RollingCycle>& history) {
-  if (const std::optional<double> rate = steady_rate(history); rate && *rate < 1.0)
-    return fmt::format(
-        "; it was still converging, slowly (max(residual, |force error|) fell in each of its last "
-        "{} cycles, by {:.3g} per cycle): more cycles (solver.max_cycles) may converge it",
-        kStalledRunCycles, *rate);
-  if (stalled(history)) return stall_hint(history);
+  if (std::string progress = progress_hint(c, history); !progress.empty()) return progress;
   if (other_update_tried) return "; more cycles (solver.max_cycles) may converge it";
   const bool each_colour = c.relaxation.deformation_each_colour;
   return fmt::format(
