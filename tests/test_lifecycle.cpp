@@ -493,6 +493,28 @@ TEST(Lifecycle, AMountMadeDuringTheRunIsNeitherPublishedNorEmptied) {
     EXPECT_EQ(contents(run), before);
   }
   fs::remove_all(staging);  // unmounted: the debris of the failed run
+  // The staging directory itself mounted over: a bare "filesystem error:
+  // cannot rename: Device or resource busy".
+  const Child over = start(args, work / "over", "publish");
+  ASSERT_TRUE(wait_until_stopped(over));
+  const fs::path covered = work / (".run.part-" + std::to_string(over.pid));
+  fs::create_directory(work / "empty");
+  ASSERT_EQ(mount((work / "empty").c_str(), covered.c_str(), nullptr, MS_BIND, nullptr), 0);
+  const Result r_over = resume(over, 0);
+  umount(covered.c_str());
+  EXPECT_EQ(r_over.exit_code, 1);
+  EXPECT_NE(r_over.err.find("'" + covered.string() +
+                            "', where ehlsim writes the run before it "
+                            "replaces '" +
+                            shown.string() +
+                            "', was mounted over during the run: nothing was published; unmount it "
+                            "(the next run into '" +
+                            shown.string() + "' removes it)"),
+            std::string::npos)
+      << r_over.err;
+  EXPECT_EQ(contents(run), before);
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.2").exit_code, 0);
+  EXPECT_FALSE(fs::exists(covered));
   const Child in_dir = start(args, work / "in_dir", "publish");
   ASSERT_TRUE(wait_until_stopped(in_dir));
   const SmallTmpfs data(run / "data");
@@ -546,7 +568,7 @@ TEST(Lifecycle, ARunDirectoryThatIsAMountPointIsRefusedBeforeAnyWork) {
   EXPECT_EQ(bound.exit_code, 2);
   EXPECT_EQ(bound.err, "ehlsim: error: --out '" + (work / "ck").string() +
                            "': a run keeps its checkpoint beside it, and '" + checkpoint.string() +
-                           "' is a mount point: move it, or choose another --out\n");
+                           "' is a mount point: unmount it, or choose another --out\n");
 }
 
 TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {

@@ -664,6 +664,19 @@ TEST(RunawayInputs, AStartTooSlowOrTooFarIsRefusedBeforeAnyWork) {
       "1.69e+07 time steps (the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); "
       "at most 10000000 are allowed: use a longer time.dT, or set time.T_end or time.max_steps "
       "(--set)");
+  // ... but not where the start is the cause (no time.dT allowed would do),
+  // and the mesh where it gives the default time.dT.
+  expect_refused_at_once(
+      "--set time.dT=0.7 --set time.Delta0=1e8",
+      "time.Delta0 = 100000000: a run until lift-off at time.V0 = 1 may need 5.71e+08 time steps "
+      "of dT = 0.7 (the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most "
+      "10000000 are allowed: start closer or faster, or set time.T_end or time.max_steps (--set)");
+  expect_refused_at_once(
+      "--set body.elastic=false --set grid.half_width=1e-8",
+      "grid.half_width = 1e-08: gives a mesh, and so a default time.dT, of 7.813e-11; a run until "
+      "lift-off from time.Delta0 = 1 at time.V0 = 1 may need 2.16e+11 time steps (the default "
+      "time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most 10000000 are allowed: set "
+      "a longer time.dT, or time.T_end or time.max_steps (--set)");
   expect_refused_at_once("--set time.dT=1e-8 --set time.T_end=1",
                          "time.dT = 1e-08: needs 1e+08 time steps to time.T_end = 1; at most "
                          "10000000 are allowed: use a longer time.dT or an earlier time.T_end "

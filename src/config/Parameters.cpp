@@ -538,12 +538,19 @@ void check_step_count(const Inputs& in, const ImpactConfig& c) {
       "(the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} are "
       "allowed",
       kMaxTimeSteps);
-  if (dT_given)
-    in.fail("time.dT",
-            fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} may need "
-                        "{:.3g} time steps {}: use a longer time.dT, or set time.T_end or "
-                        "time.max_steps",
-                        c.Delta0, c.V0, steps, cap));
+  // The time step is the cause when the default start would need as many.
+  if (default_max_steps_exact(kDefaults.Delta0, kDefaults.V0, dT) > limit) {
+    const std::string rest = fmt::format(
+        "a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} may need {:.3g} time "
+        "steps {}",
+        c.Delta0, c.V0, steps, cap);
+    if (dT_given)
+      in.fail("time.dT", rest + ": use a longer time.dT, or set time.T_end or time.max_steps");
+    in.fail(mesh_key(in),
+            fmt::format("gives a mesh, and so a default time.dT, of {:.4g}; {}: set a longer "
+                        "time.dT, or time.T_end or time.max_steps",
+                        dT, rest));
+  }
   const bool slow = in.has("time.V0") || !in.has("time.Delta0");
   const std::string start = slow ? fmt::format("from time.Delta0 = {:g}", c.Delta0)
                                  : fmt::format("at time.V0 = {:g}", c.V0);

@@ -717,11 +717,13 @@ void RunDirectory::refuse_foreign_checkpoint() const {
     std::error_code ec;
     const fs::file_status status = fs::symlink_status(path, ec);
     std::string why;
+    std::string way_out = "move it";
     if (fs::is_symlink(status)) {
       why = fmt::format("'{}' is a symbolic link", path.string());
     } else if (fs::exists(status) && is_mount_point(path, device_of_parent(path))) {
       // Renamed over at the first checkpoint: EBUSY after the work.
       why = fmt::format("'{}' is a mount point", path.string());
+      way_out = "unmount it";
     } else if (fs::exists(status) &&
                !(path == partial && fs::is_regular_file(status) && fs::is_empty(path, ec))) {
       try {
@@ -732,8 +734,8 @@ void RunDirectory::refuse_foreign_checkpoint() const {
     }
     if (!why.empty())
       throw ConfigError(fmt::format("--out '{}': a run keeps its checkpoint beside it, and {}: "
-                                    "move it, or choose another --out",
-                                    target_.string(), why),
+                                    "{}, or choose another --out",
+                                    target_.string(), why, way_out),
                         "--out");
   }
 }
@@ -767,6 +769,13 @@ void RunDirectory::publish(const fs::path& carried_checkpoint, bool resumed_from
 }
 
 void RunDirectory::refuse_mount_in_staging() const {
+  // Mounted over, the rename failed with a bare "filesystem error: ... busy".
+  if (is_mount_point(staging_, device_of_parent(staging_))) {
+    throw std::runtime_error(fmt::format(
+        "'{}', where ehlsim writes the run before it replaces '{}', was mounted over during the "
+        "run: nothing was published; unmount it (the next run into '{}' removes it)",
+        staging_.string(), target_.string(), target_.string()));
+  }
   // Published, it would become part of DIR, which the next run cannot replace.
   if (const fs::path mount = first_mount_point_below(staging_); !mount.empty()) {
     throw std::runtime_error(fmt::format(
