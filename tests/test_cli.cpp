@@ -367,6 +367,12 @@ TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
   EXPECT_NE(r.err.find("no lift-off after 2 steps (time.max_steps"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(dir / "run"));
+  // A time too short for five decimals is shown with its digits ("T = 0.00000").
+  const Result short_steps = ehlsim(
+      "impact --quiet --set grid.points=33 --set time.dT=1e-6 --set time.max_steps=5 --out " +
+      quote((dir / "run").string()));
+  EXPECT_EQ(short_steps.err.rfind("ehlsim: error: time step 5 (T = 5e-06): no lift-off", 0), 0u)
+      << short_steps.err;
 }
 
 TEST(Cli, VersionAndHelp) {

@@ -559,11 +559,11 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
     if (cycle_observer) cycle_observer->on_cycle(report);
     throw_if_stop_requested();
     if (!std::isfinite(residual) || residual > kDivergenceFactor * initial_residual)
-      throw RunFailure(
-          fmt::format("time step {} (T = {:.5f}): the multigrid iteration diverged (residual {}, "
-                      "{} at the start of the step){}",
-                      step, ball.T + newmark.dT(), finite_or_text(residual, "{:.3e}"),
-                      finite_or_text(initial_residual, "{:.3e}"), rigid_film_hint(cfg)));
+      throw RunFailure(fmt::format(
+          "{}: the multigrid iteration diverged (residual {}, "
+          "{} at the start of the step){}",
+          time_step_text(step, ball.T + newmark.dT()), finite_or_text(residual, "{:.3e}"),
+          finite_or_text(initial_residual, "{:.3e}"), rigid_film_hint(cfg)));
     const double force = fine.force(solver->solution());
     if (const bool keepable = may_keep_unconverged(start_force, force);
         best.improves(residual, keepable)) {
@@ -872,12 +872,12 @@ std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& 
   if (until_lift_off && is_at_rest(record.dDelta_dT, energy, run.bounds)) return RunOutcome::AtRest;
   if (run.had_pressure && record.p_max <= 0.0 && record.residual > cfg.tolerance)
     throw RunFailure(fmt::format(
-        "time step {} (T = {:.5f}): the pressure vanished in a step that no attempt converged "
+        "{}: the pressure vanished in a step that no attempt converged "
         "(residual {:.3g}, above solver.tolerance = {:g}): not a lift-off the solver can vouch "
         "for; the collapse of the entrapped pocket before lift-off is near-singular on fine "
         "grids (docs/performance.md): more cycles (solver.max_cycles) or a coarser grid may "
         "solve it",
-        record.step, record.T, record.residual, cfg.tolerance));
+        time_step_text(record.step, record.T), record.residual, cfg.tolerance));
   if (run.had_pressure && record.dDelta_dT > 0.0 && record.p_max <= 0.0) return RunOutcome::LiftOff;
   if (record.T >= cfg.T_end - 1e-9 * dT) return RunOutcome::TEnd;
   check_step_cap(record, cfg, dT);

@@ -56,10 +56,15 @@ constexpr double kRestEnergyFraction = 1e-4;
 /// case map's runs end by 1.03 dry lift-off times (Roelands-DH M = 1000, T = 4.31).
 constexpr double kMaxStepsDryLiftOffs = 4.0;
 
-std::string where(const StepRecord& r) {
-  return fmt::format("time step {} (T = {:.5f})", r.step, r.T);
-}
+std::string where(const StepRecord& r) { return time_step_text(r.step, r.T); }
 }  // namespace
+
+std::string time_step_text(int step, double T) {
+  constexpr double kShownByDecimals = 1e-3;  // five decimals show it to two digits or more
+  return T == 0.0 || std::abs(T) >= kShownByDecimals
+             ? fmt::format("time step {} (T = {:.5f})", step, T)
+             : fmt::format("time step {} (T = {:.4g})", step, T);
+}
 
 double waviness_height(const ImpactConfig& c, double x, double y) {
   return reynolds::Waviness{c.waviness_amplitude, c.waviness_wavelength, c.waviness_angle_deg}

@@ -36,6 +36,11 @@ namespace ehlsim {
 [[nodiscard]] int default_max_steps(double Delta0, double V0, double dT);
 [[nodiscard]] double default_max_steps_exact(double Delta0, double V0, double dT);
 
+/// "time step N (T = ...)", the start of a failed step's message: T to five
+/// decimals, or to four digits when it is shorter than that shows ("T =
+/// 0.00000" after five steps of time.dT = 1e-6).
+[[nodiscard]] std::string time_step_text(int step, double T);
+
 /// The bounds of one run, fixed at T = 0 from its energy.
 struct RunBounds {
   double energy0 = 0.0;    ///< V0^2 / 2 + elastic energy at T = 0 [m v0^2]
