@@ -100,14 +100,17 @@ class RunDirectory {
   void refuse_foreign_checkpoint() const;
 
   /// Makes the staged run DIR, with the file `carried_checkpoint` (the run's
-  /// last checkpoint: `checkpoint()`, or the one it resumed from when it
-  /// wrote none; empty: none) as DIR/checkpoint.nc.  `checkpoint()` is removed
-  /// when it went along, or when the run completed the state it resumed from
-  /// it (`resumed_from_checkpoint`), and else left as it is.  Throws std::runtime_error when a file
-  /// cannot be synced or renamed, or when DIR changed meanwhile (a foreign file in it, an entry of
-  /// an amended DIR added, removed or replaced); PublishInterrupted when SIGINT, SIGTERM or SIGHUP
-  /// came before the swap (io/Interrupt.hpp). DIR then still holds the earlier run.  The swap is
-  /// the commit point: a signal after it does not undo the published run.
+  /// last checkpoint, `checkpoint()`; empty: none) as DIR/checkpoint.nc, in
+  /// the place of one staged already (a restart's, the one it resumed from).
+  /// `checkpoint()` is removed when it went along, or when the run completed
+  /// the state it resumed from it (`resumed_from_checkpoint`), and else left
+  /// as it is.  Throws std::runtime_error when a file cannot be synced or
+  /// renamed, or when DIR changed meanwhile (a foreign file in it, an entry of
+  /// an amended DIR added, removed or replaced, a mount in it or in the
+  /// staging directory); PublishInterrupted when SIGINT, SIGTERM or SIGHUP
+  /// came before the swap (io/Interrupt.hpp).  DIR then still holds the
+  /// earlier run.  The swap is the commit point: a signal after it does not
+  /// undo the published run.
   void publish(const std::filesystem::path& carried_checkpoint = {},
                bool resumed_from_checkpoint = false);
   [[nodiscard]] bool published() const { return published_; }
