@@ -258,7 +258,7 @@ void resume(Checkpoint& checkpoint, const ImpactConfig& config, const RunDirecto
   spike.resume_after(checkpoint.state.ball.T, checkpoint.state.P);
   output.resume_after(checkpoint.state.ball.T);
   if (config.checkpoint_every > 0) {
-    write_checkpoint(run_dir.staging() / kCheckpointFile, checkpoint.state, checkpoint.parameters);
+    write_checkpoint(run_dir.staged_checkpoint(), checkpoint.state, checkpoint.parameters);
     output.add_file("checkpoint", kCheckpointFile);
   }
   problem.restart_from(std::move(checkpoint.state));
@@ -289,19 +289,19 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
                              std::filesystem::exists(run_dir.checkpoint()) &&
                              !resumes_from(options, run_dir.checkpoint());
   if (spare_earlier) kept.spared = run_dir.checkpoint();
-  // Checkpoints go to DIR.checkpoint.nc: DIR keeps the earlier run's until this one publishes.
+  // Checkpoints go to DIR.checkpoint.nc (for a restart after a failure or a
+  // kill), and into the staging directory: DIR keeps the earlier run's until
+  // this one publishes.
   problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
     if (spare_earlier) return;
     write_checkpoint(run_dir.checkpoint(), state, parameters);
+    run_dir.stage_checkpoint();
     if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
     kept = {state.step, run_dir.checkpoint(), true, state.ball.T, {}};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  // This run's last checkpoint goes along (a restart's first, from what it
-  // resumed, is in the staging directory already).
-  run_dir.publish(config.checkpoint_every > 0 && kept.written ? kept.path : std::filesystem::path(),
-                  resumes_from(options, run_dir.checkpoint()));
+  run_dir.publish(resumes_from(options, run_dir.checkpoint()));
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
     cli::print_warnings(summary.warnings);

@@ -1516,18 +1516,23 @@ TEST(RunDirectory, ReplacesAnEarlierRunAsAWhole) {
   TempDir dir;
   const fs::path target = dir / "run";
   write_earlier_run(target);
-  write_file(dir / "run.checkpoint.nc", "checkpoint of the new run\n");
   {
     RunDirectory run(target);
+    write_file(run.checkpoint(), "checkpoint of the new run\n");
+    run.stage_checkpoint();
+    // Another file put there (renamed over it) is not published.
+    write_file(dir / "other.nc", "another file\n");
+    fs::rename(dir / "other.nc", run.checkpoint());
     write_file(run.staging() / "run.json", "new\n");
     EXPECT_EQ(read_file(target / "timeseries.csv"), "old\n");  // the earlier run until publish
-    run.publish(run.checkpoint());
+    run.publish();
   }
   // The earlier run's files are gone (no stale timeseries.csv); the checkpoint
   // of the new run moved in.
   EXPECT_EQ(names_in(target), (std::set<std::string>{"checkpoint.nc", "run.json"}));
   EXPECT_EQ(read_file(target / "checkpoint.nc"), "checkpoint of the new run\n");
-  EXPECT_EQ(names_in(dir.path()), std::set<std::string>{"run"});
+  EXPECT_EQ(names_in(dir.path()), (std::set<std::string>{"run", "run.checkpoint.nc"}));
+  EXPECT_EQ(read_file(dir / "run.checkpoint.nc"), "another file\n");  // not the run's: it stays
 }
 
 TEST(RunDirectory, AnUnpublishedRunLeavesTheEarlierOneAndItsCheckpoint) {

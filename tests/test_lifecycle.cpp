@@ -1790,7 +1790,7 @@ TEST(Lifecycle, ASignalWhileTheRunIsPublishedLeavesTheEarlierRun) {
             nlohmann::json::parse(read_file(plain / "run.json"))["results"]);
 }
 
-TEST(Lifecycle, ARestartPublishesTheCheckpointItReadNotWhatItsFileBecame) {
+TEST(Lifecycle, ARunPublishesTheCheckpointItReadOrWroteNotWhatItsFileBecame) {
   // A restart that ends before its next checkpoint publishes the one it
   // resumed from.  Taken from the file at the end, that was whatever the
   // file had become: another case's checkpoint (exit 0), a FIFO, or nothing,
@@ -1819,6 +1819,23 @@ TEST(Lifecycle, ARestartPublishesTheCheckpointItReadNotWhatItsFileBecame) {
     EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / "checkpoint.nc")));
     EXPECT_EQ(read_file(dir / "checkpoint.nc"), read);
     fs::remove(source);
+  }
+  // So does a run whose own DIR.checkpoint.nc was replaced or removed: the
+  // other file was published as its checkpoint (exit 0), or the finished run
+  // failed (exit 1).
+  for (const bool remove : {false, true}) {
+    const fs::path dir = work / (remove ? "own_removed" : "own_replaced");
+    const fs::path beside = dir.string() + ".checkpoint.nc";
+    std::vector<std::string> own = args;
+    own.insert(own.end(), {"--out", dir.string()});
+    const Child c = start(own, dir.string() + "-capture", "publish");
+    ASSERT_TRUE(wait_until_stopped(c));
+    fs::remove(beside);
+    if (!remove) write_file(beside, "not the run's\n");
+    const Result r = resume(c, 0);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_file(dir / "checkpoint.nc"), read);
+    EXPECT_EQ(fs::exists(beside), !remove);  // another's file stays
   }
 }
 

@@ -234,6 +234,13 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
   sync_path(to);
 }
 
+/// The identity of the file `path` (links not followed); device 0 when there is none.
+CarriedEntry entry_of(const fs::path& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return {};
+  return {{}, st.st_dev, st.st_ino};
+}
+
 /// Whether `path` (a directory, or a file) is where another file system, or a
 /// bind mount of this one (the same st_dev: only statx tells), is mounted.
 bool is_mount_point(const fs::path& path, dev_t device_above) {
@@ -675,6 +682,7 @@ RunDirectory::RunDirectory(const fs::path& target)
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
   entries_at_start_ = entries_below(resolved_, {}, target_);
+  checkpoint_at_start_ = entry_of(checkpoint());
   fs::create_directory(staging_);
 }
 
@@ -740,12 +748,15 @@ void RunDirectory::refuse_foreign_checkpoint() const {
   }
 }
 
-void RunDirectory::publish(const fs::path& carried_checkpoint, bool resumed_from_checkpoint) {
-  if (!carried_checkpoint.empty()) {
-    std::error_code ec;  // a restart's first checkpoint, the one it resumed from
-    fs::remove(staging_ / kCheckpointFile, ec);
-    link_or_copy(carried_checkpoint, staging_ / kCheckpointFile);
-  }
+fs::path RunDirectory::staged_checkpoint() const { return staging_ / kCheckpointFile; }
+
+void RunDirectory::stage_checkpoint() const {
+  std::error_code ec;
+  fs::remove(staged_checkpoint(), ec);  // the one before, or the one a restart resumed from
+  link_or_copy(checkpoint(), staged_checkpoint());
+}
+
+void RunDirectory::publish(bool resumed_from_checkpoint) {
   if (amend_) {
     // Now, not at the start: DIR may change in a long analysis (ehlsim spike locks
     // it only against other ehlsim processes).
@@ -764,8 +775,12 @@ void RunDirectory::publish(const fs::path& carried_checkpoint, bool resumed_from
   // The checkpoint went along as DIR/checkpoint.nc, or the run completed
   // the one it resumed.  Any other stays: an interrupted run's, which a run
   // without checkpoints or a rolling run into DIR deleted.
+  const CarriedEntry beside = entry_of(checkpoint());
+  const bool own = beside.device != 0 && beside == entry_of(resolved_ / kCheckpointFile);
+  const bool resumed =
+      resumed_from_checkpoint && beside.device != 0 && beside == checkpoint_at_start_;
   std::error_code ec;
-  if (carried_checkpoint == checkpoint() || resumed_from_checkpoint) fs::remove(checkpoint(), ec);
+  if (own || resumed) fs::remove(checkpoint(), ec);
 }
 
 void RunDirectory::refuse_mount_in_staging() const {

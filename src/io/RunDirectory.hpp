@@ -89,9 +89,19 @@ class RunDirectory {
   [[nodiscard]] const std::filesystem::path& target() const { return target_; }
   /// Where the files of the new run are written.
   [[nodiscard]] const std::filesystem::path& staging() const { return staging_; }
-  /// DIR.checkpoint.nc: where the run in progress writes its checkpoints
-  /// (beside the directory a symbolic link DIR points to).
+  /// DIR.checkpoint.nc: where the checkpoints of the run in progress are
+  /// kept, for a restart (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
+  /// The run's last checkpoint, in the staging directory: published as
+  /// DIR/checkpoint.nc.  Each checkpoint written as checkpoint() is given this
+  /// name too at once (stage_checkpoint), so that what the run publishes is
+  /// what it wrote, whatever becomes of checkpoint() meanwhile (another
+  /// case's checkpoint put there was published as the run's own, with exit 0;
+  /// one removed failed the finished run).
+  [[nodiscard]] std::filesystem::path staged_checkpoint() const;
+  /// Makes staged_checkpoint() another name of checkpoint(), just written (a
+  /// copy where no link can be made).  Throws std::runtime_error naming it.
+  void stage_checkpoint() const;
   /// For a run that writes checkpoints: ConfigError when checkpoint() or its
   /// partial file is not ehlsim's: a symbolic link (a dangling one was
   /// replaced, then deleted), a directory, or a file that is no NetCDF-4 one
@@ -99,11 +109,10 @@ class RunDirectory {
   /// file there was overwritten.
   void refuse_foreign_checkpoint() const;
 
-  /// Makes the staged run DIR, with the file `carried_checkpoint` (the run's
-  /// last checkpoint, `checkpoint()`; empty: none) as DIR/checkpoint.nc, in
-  /// the place of one staged already (a restart's, the one it resumed from).
-  /// `checkpoint()` is removed when it went along, or when the run completed
-  /// the state it resumed from it (`resumed_from_checkpoint`), and else left
+  /// Makes the staged run DIR, with staged_checkpoint() as DIR/checkpoint.nc
+  /// when there is one.  checkpoint() is removed when it is still the run's
+  /// own, or when the run completed the state it resumed from it
+  /// (`resumed_from_checkpoint`) and it is still that file; else it is left
   /// as it is.  Throws std::runtime_error when a file cannot be synced or
   /// renamed, or when DIR changed meanwhile (a foreign file in it, an entry of
   /// an amended DIR added, removed or replaced, a mount in it or in the
@@ -111,8 +120,7 @@ class RunDirectory {
   /// came before the swap (io/Interrupt.hpp).  DIR then still holds the
   /// earlier run.  The swap is the commit point: a signal after it does not
   /// undo the published run.
-  void publish(const std::filesystem::path& carried_checkpoint = {},
-               bool resumed_from_checkpoint = false);
+  void publish(bool resumed_from_checkpoint = false);
   [[nodiscard]] bool published() const { return published_; }
 
  private:
@@ -126,6 +134,8 @@ class RunDirectory {
   std::vector<CarriedEntry> carried_;           ///< amendment: what was carried over from DIR
   std::vector<CarriedEntry> entries_at_start_;  ///< new run: what DIR held when it began
   bool published_ = false;
+  /// checkpoint() when the run began (device 0: none), for publish.
+  CarriedEntry checkpoint_at_start_;
 
   /// Throws std::runtime_error when something was mounted in the staging directory.
   void refuse_mount_in_staging() const;
