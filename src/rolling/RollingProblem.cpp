@@ -752,6 +752,10 @@ constexpr double kRoundOffResidual = 1e-13;
 /// solver.max_cycles more: a Newton step of H0 of 1e-9 lowered the force
 /// error by 1e-9 per cycle, steadily, and was told so ("by 1 per cycle").
 constexpr double kPromisingCyclesFactor = 10.0;
+/// The cycles said to be needed are the steady rate's times this: its rate
+/// slows near the tolerance (solver.h0_relaxation = 0.02 on 33^2 was told 342
+/// more after 120 and needed 348; 0.03 after 50, 237 and 256).
+constexpr double kMoreCyclesMargin = 1.25;
 
 /// The cycles the last cycle's measure needs to reach `tolerance` at the
 /// steady rate of `history`'s last window, if it has one.
@@ -770,13 +774,22 @@ std::string progress_hint(const RollingConfig& c, const std::vector<RollingCycle
         "; its max(residual, |force error|), {:.2g}, is at round-off: solver.tolerance = {:g} is "
         "below what it can reach",
         stall_measure(history.back()), c.tolerance);
-  if (const std::optional<double> more = cycles_to_converge(history, c.tolerance);
-      more && *more <= kPromisingCyclesFactor * c.max_cycles)
-    return fmt::format(
+  if (const std::optional<double> more = cycles_to_converge(history, c.tolerance)) {
+    const double needed = std::ceil(kMoreCyclesMargin * *more);
+    const std::string converging = fmt::format(
         "; it was still converging, slowly (max(residual, |force error|) fell in each of its last "
-        "{} cycles, by {:.4g} per cycle): at that rate about {:.0f} more cycles would reach "
-        "solver.tolerance (raise solver.max_cycles)",
-        kStalledRunCycles, *steady_rate(history), std::ceil(*more));
+        "{} cycles, by {:.2g} % of it per cycle)",
+        kStalledRunCycles, 100.0 * (1.0 - *steady_rate(history)));
+    if (*more <= kPromisingCyclesFactor * c.max_cycles)
+      return converging + fmt::format(
+                              ": about {:.0f} more cycles may reach solver.tolerance (raise "
+                              "solver.max_cycles to {:.0f})",
+                              needed, needed + c.max_cycles);
+    return converging + fmt::format(
+                            ", so slowly that it would need about {:.3g} more cycles: does a "
+                            "solver.* setting (such as solver.h0_relaxation) hold it?",
+                            needed);
+  }
   if (stalled(history))
     return fmt::format(
         "; it stalled (max(residual, |force error|) fell by less than {:g} times in its last {} "
