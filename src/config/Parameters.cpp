@@ -513,6 +513,48 @@ void check_time_step_not_negligible(const Inputs& in, const ImpactConfig& c) {
                       dT, kShortestTimeStep));
 }
 
+/// A run until lift-off whose default step cap exceeds kMaxTimeSteps: the
+/// message says what would fit (a longer time step, within a quarter of the
+/// dry contact; a closer start), and names the key the user gave that one
+/// of them changes.  It blamed time.dT where no allowed dT would do, and
+/// time.V0 = 1 (the default) for a start far away.
+void check_default_step_cap(const Inputs& in, const ImpactConfig& c, bool dT_given) {
+  const double dT = effective_time_step(c);
+  const double limit = kMaxTimeSteps;
+  const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
+  if (steps <= limit) return;
+  const double longest = c.elastic ? dry_contact_duration(c.V0) / kMinStepsPerDryContact
+                                   : std::numeric_limits<double>::infinity();
+  constexpr double kRoundingMargin = 1.01;  // the value shown, to 3 digits, must fit
+  const double needed_dT = steps / limit * dT * kRoundingMargin;
+  // The steps of the contact; those of the flight before it grow with Delta0.
+  const double contact_steps = default_max_steps_exact(0.0, c.V0, dT);
+  std::vector<std::string> fixes;
+  if (needed_dT <= longest) fixes.push_back(fmt::format("a time.dT of {:.3g} or more", needed_dT));
+  const bool closer = contact_steps < limit;
+  if (closer) {
+    const double flight_steps = steps - contact_steps;
+    fixes.push_back(
+        fmt::format("a time.Delta0 of {:.3g} or less",
+                    c.Delta0 * (limit - contact_steps) / flight_steps / kRoundingMargin));
+  }
+  if (fixes.empty())
+    fixes.push_back(fmt::format("a closer start with a longer time.dT (at most {:.3g})", longest));
+  fixes.emplace_back("time.T_end or time.max_steps");
+  std::string key = "time.Delta0";
+  if (dT_given && needed_dT <= longest)
+    key = "time.dT";
+  else if (!closer && needed_dT <= longest)
+    key = mesh_key(in);
+  else if (in.has("time.V0") && !in.has("time.Delta0"))
+    key = "time.V0";
+  in.fail(key, fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} with "
+                           "time steps of dT = {:.4g} may need {:.3g} time steps (the default "
+                           "time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
+                           "are allowed: set {}",
+                           c.Delta0, c.V0, dT, steps, kMaxTimeSteps, fmt::join(fixes, ", or ")));
+}
+
 /// A run of more than kMaxTimeSteps steps is refused before it starts: a
 /// start far away or slow needs billions of steps (and an int overflows).
 /// The message names time.dT where the user gave it, else the end or the start.
@@ -532,32 +574,7 @@ void check_step_count(const Inputs& in, const ImpactConfig& c) {
                         steps, dT, kMaxTimeSteps));
   }
   if (in.has("time.max_steps")) return;  // within the registry's range
-  const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
-  if (steps <= limit) return;
-  const std::string cap = fmt::format(
-      "(the default time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} are "
-      "allowed",
-      kMaxTimeSteps);
-  // The time step is the cause when the default start would need as many.
-  if (default_max_steps_exact(kDefaults.Delta0, kDefaults.V0, dT) > limit) {
-    const std::string rest = fmt::format(
-        "a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} may need {:.3g} time "
-        "steps {}",
-        c.Delta0, c.V0, steps, cap);
-    if (dT_given)
-      in.fail("time.dT", rest + ": use a longer time.dT, or set time.T_end or time.max_steps");
-    in.fail(mesh_key(in),
-            fmt::format("gives a mesh, and so a default time.dT, of {:.4g}; {}: set a longer "
-                        "time.dT, or time.T_end or time.max_steps",
-                        dT, rest));
-  }
-  const bool slow = in.has("time.V0") || !in.has("time.Delta0");
-  const std::string start = slow ? fmt::format("from time.Delta0 = {:g}", c.Delta0)
-                                 : fmt::format("at time.V0 = {:g}", c.V0);
-  in.fail(slow ? "time.V0" : "time.Delta0",
-          fmt::format("a run until lift-off {} may need {:.3g} time steps of dT = {:.4g} {}: "
-                      "start closer or faster, or set time.T_end or time.max_steps",
-                      start, steps, dT, cap));
+  check_default_step_cap(in, c, dT_given);
 }
 
 void assemble_rest(const Inputs& in, ImpactConfig& c) {
