@@ -224,6 +224,10 @@ struct KeptCheckpoint {
 /// does not name one (a full disk, a file that cannot be written).
 class LastStep final : public ImpactObserver {
  public:
+  LastStep() = default;
+  /// A restart's: it has completed the checkpoint's steps (a failed write
+  /// before its first said "before the first time step").
+  LastStep(int step, double T) : step_(step), T_(T) {}
   void on_step(const StepRecord& record, const Field&, const Field&, bool) override {
     step_ = record.step;
     T_ = record.T;
@@ -478,7 +482,8 @@ int run_impact(const ImpactOptions& options) {
   KeptCheckpoint kept;
   if (checkpoint)
     kept = {checkpoint->state.step, options.restart_file, false, checkpoint->state.ball.T, {}};
-  LastStep last;
+  LastStep last =
+      checkpoint ? LastStep(checkpoint->state.step, checkpoint->state.ball.T) : LastStep();
   try {
     simulate(options, config, checkpoint, *run_dir, invocation, kept, last);
   } catch (const RunInterrupted& e) {
