@@ -1820,22 +1820,24 @@ TEST(Lifecycle, ARunPublishesTheCheckpointItReadOrWroteNotWhatItsFileBecame) {
     EXPECT_EQ(read_file(dir / "checkpoint.nc"), read);
     fs::remove(source);
   }
-  // So does a run whose own DIR.checkpoint.nc was replaced or removed: the
-  // other file was published as its checkpoint (exit 0), or the finished run
-  // failed (exit 1).
-  for (const bool remove : {false, true}) {
-    const fs::path dir = work / (remove ? "own_removed" : "own_replaced");
+  // So does a run whose own DIR.checkpoint.nc was replaced, written over or
+  // removed: the other file was published as its checkpoint (exit 0), and
+  // deleted; or the finished run failed (exit 1).
+  for (const std::string how : {"replaced", "written_over", "removed"}) {
+    const fs::path dir = work / ("own_" + how);
     const fs::path beside = dir.string() + ".checkpoint.nc";
     std::vector<std::string> own = args;
     own.insert(own.end(), {"--out", dir.string()});
     const Child c = start(own, dir.string() + "-capture", "publish");
     ASSERT_TRUE(wait_until_stopped(c));
-    fs::remove(beside);
-    if (!remove) write_file(beside, "not the run's\n");
+    if (how != "written_over") fs::remove(beside);
+    if (how != "removed") write_file(beside, "not the run's\n");
     const Result r = resume(c, 0);
     EXPECT_EQ(r.exit_code, 0) << r.err;
-    EXPECT_EQ(read_file(dir / "checkpoint.nc"), read);
-    EXPECT_EQ(fs::exists(beside), !remove);  // another's file stays
+    EXPECT_EQ(read_file(dir / "checkpoint.nc"), read) << how;
+    if (how != "removed") {
+      EXPECT_EQ(read_file(beside), "not the run's\n") << how;  // it stays
+    }
   }
 }
 

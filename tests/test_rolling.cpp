@@ -764,6 +764,12 @@ TEST(Rolling, ARunThatConvergesSlowlyIsToldThatMoreCyclesMayConvergeIt) {
                          "cycles may reach solver.tolerance (raise solver.max_cycles to 1127)"),
             std::string::npos)
       << message;
+  // Too few cycles to judge: it was "stalled" with solver.max_cycles = 21.
+  const std::string young = failure_message(load_rolling_config(
+      std::nullopt, {"grid.points=33", "solver.h0_relaxation=0.04", "solver.max_cycles=21"}));
+  EXPECT_EQ(young.find("stalled"), std::string::npos) << young;
+  EXPECT_NE(young.find("more cycles (solver.max_cycles) may converge it"), std::string::npos)
+      << young;
   config =
       load_rolling_config(std::nullopt, {"grid.points=33", "solver.h0_relaxation=0.01",
                                          "solver.max_cycles=3000", "solver.fallback_update=false"});

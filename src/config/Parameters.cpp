@@ -518,41 +518,57 @@ void check_time_step_not_negligible(const Inputs& in, const ImpactConfig& c) {
 /// dry contact; a closer start), and names the key the user gave that one
 /// of them changes.  It blamed time.dT where no allowed dT would do, and
 /// time.V0 = 1 (the default) for a start far away.
-void check_default_step_cap(const Inputs& in, const ImpactConfig& c, bool dT_given) {
+/// `x` rounded to three significant digits, up or down: the value a message
+/// shows must itself pass the check it suggests.
+double three_digits(double x, bool up) {
+  const double unit = std::pow(10.0, std::floor(std::log10(x)) - 2.0);
+  return (up ? std::ceil(x / unit) : std::floor(x / unit)) * unit;
+}
+
+/// The key of `in` to name for a step count that one of the fixes found changes.
+std::string step_cap_key(const Inputs& in, bool longer_step, bool closer) {
+  if (longer_step && in.has("time.dT")) return "time.dT";
+  if (closer && in.has("time.Delta0")) return "time.Delta0";
+  if (closer && in.has("time.V0")) return "time.V0";
+  if (longer_step && (in.has("grid.half_width") || in.has("grid.points"))) return mesh_key(in);
+  for (const char* key : {"time.Delta0", "time.V0", "time.dT", "grid.half_width", "grid.points"})
+    if (in.has(key)) return key;
+  return "time.Delta0";
+}
+
+void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
   const double dT = effective_time_step(c);
   const double limit = kMaxTimeSteps;
   const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
   if (steps <= limit) return;
   const double longest = c.elastic ? dry_contact_duration(c.V0) / kMinStepsPerDryContact
                                    : std::numeric_limits<double>::infinity();
-  constexpr double kRoundingMargin = 1.01;  // the value shown, to 3 digits, must fit
-  const double needed_dT = steps / limit * dT * kRoundingMargin;
+  std::vector<std::string> fixes;
+  const double needed_dT = three_digits(steps / limit * dT, true);
+  const bool longer_step = needed_dT <= longest;
+  if (longer_step) fixes.push_back(fmt::format("a time.dT of {:g} or more", needed_dT));
   // The steps of the contact; those of the flight before it grow with Delta0.
   const double contact_steps = default_max_steps_exact(0.0, c.V0, dT);
-  std::vector<std::string> fixes;
-  if (needed_dT <= longest) fixes.push_back(fmt::format("a time.dT of {:.3g} or more", needed_dT));
-  const bool closer = contact_steps < limit;
-  if (closer) {
-    const double flight_steps = steps - contact_steps;
-    fixes.push_back(
-        fmt::format("a time.Delta0 of {:.3g} or less",
-                    c.Delta0 * (limit - contact_steps) / flight_steps / kRoundingMargin));
-  }
+  const double closest =
+      contact_steps < limit
+          ? three_digits(c.Delta0 * (limit - contact_steps) / (steps - contact_steps), false)
+          : 0.0;
+  // The grid must still resolve the film from there (check_mesh_resolves_the_film).
+  const double mesh = Grid2D(c.grid_points, c.half_width).h();
+  const double zone =
+      std::max(std::sqrt(2.0 * closest), c.elastic ? dry_largest_contact_radius(c.V0) : 0.0);
+  const bool closer = closest > 0.0 && mesh < zone;
+  if (closer) fixes.push_back(fmt::format("a time.Delta0 of {:g} or less", closest));
   if (fixes.empty())
-    fixes.push_back(fmt::format("a closer start with a longer time.dT (at most {:.3g})", longest));
+    fixes.push_back(fmt::format("a closer start with a longer time.dT (at most {:g})",
+                                three_digits(longest, false)));
   fixes.emplace_back("time.T_end or time.max_steps");
-  std::string key = "time.Delta0";
-  if (dT_given && needed_dT <= longest)
-    key = "time.dT";
-  else if (!closer && needed_dT <= longest)
-    key = mesh_key(in);
-  else if (in.has("time.V0") && !in.has("time.Delta0"))
-    key = "time.V0";
-  in.fail(key, fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} with "
-                           "time steps of dT = {:.4g} may need {:.3g} time steps (the default "
-                           "time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
-                           "are allowed: set {}",
-                           c.Delta0, c.V0, dT, steps, kMaxTimeSteps, fmt::join(fixes, ", or ")));
+  in.fail(step_cap_key(in, longer_step, closer),
+          fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} with "
+                      "time steps of dT = {:.4g} may need {:.3g} time steps (the default "
+                      "time.max_steps, 4 (Delta0 / V0 + 3.2181 V0^-0.2) / dT); at most {} "
+                      "are allowed: set {}",
+                      c.Delta0, c.V0, dT, steps, kMaxTimeSteps, fmt::join(fixes, ", or ")));
 }
 
 /// A run of more than kMaxTimeSteps steps is refused before it starts: a
@@ -574,7 +590,7 @@ void check_step_count(const Inputs& in, const ImpactConfig& c) {
                         steps, dT, kMaxTimeSteps));
   }
   if (in.has("time.max_steps")) return;  // within the registry's range
-  check_default_step_cap(in, c, dT_given);
+  check_default_step_cap(in, c);
 }
 
 void assemble_rest(const Inputs& in, ImpactConfig& c) {

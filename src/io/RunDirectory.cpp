@@ -15,6 +15,7 @@
 #include <cerrno>
 #include <chrono>
 #include <climits>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -234,11 +235,14 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
   sync_path(to);
 }
 
-/// The identity of the file `path` (links not followed); device 0 when there is none.
-CarriedEntry entry_of(const fs::path& path) {
+/// The stamp of the file `path` (links not followed); all zero when there is none.
+FileStamp stamp_of(const fs::path& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) return {};
-  return {{}, st.st_dev, st.st_ino};
+  constexpr std::int64_t kNanosecondsPerSecond = 1'000'000'000;
+  return {
+      st.st_dev, st.st_ino, st.st_size,
+      static_cast<std::int64_t>(st.st_mtim.tv_sec) * kNanosecondsPerSecond + st.st_mtim.tv_nsec};
 }
 
 /// Whether `path` (a directory, or a file) is where another file system, or a
@@ -682,7 +686,7 @@ RunDirectory::RunDirectory(const fs::path& target)
   check_not_holding_working_directory(resolved_, target_);
   remove_debris(resolved_);
   entries_at_start_ = entries_below(resolved_, {}, target_);
-  checkpoint_at_start_ = entry_of(checkpoint());
+  checkpoint_at_start_ = stamp_of(checkpoint());
   fs::create_directory(staging_);
 }
 
@@ -750,10 +754,16 @@ void RunDirectory::refuse_foreign_checkpoint() const {
 
 fs::path RunDirectory::staged_checkpoint() const { return staging_ / kCheckpointFile; }
 
-void RunDirectory::stage_checkpoint() const {
+void RunDirectory::stage_checkpoint() {
+  // A copy, not a link: a file written over checkpoint() would change it too.
   std::error_code ec;
-  fs::remove(staged_checkpoint(), ec);  // the one before, or the one a restart resumed from
-  link_or_copy(checkpoint(), staged_checkpoint());
+  fs::copy_file(checkpoint(), staged_checkpoint(), fs::copy_options::overwrite_existing, ec);
+  if (ec) {
+    throw std::runtime_error(fmt::format("cannot copy '{}' to '{}': {}", checkpoint().string(),
+                                         staged_checkpoint().string(), ec.message()));
+  }
+  sync_path(staged_checkpoint());
+  checkpoint_written_ = stamp_of(checkpoint());
 }
 
 void RunDirectory::publish(bool resumed_from_checkpoint) {
@@ -775,8 +785,8 @@ void RunDirectory::publish(bool resumed_from_checkpoint) {
   // The checkpoint went along as DIR/checkpoint.nc, or the run completed
   // the one it resumed.  Any other stays: an interrupted run's, which a run
   // without checkpoints or a rolling run into DIR deleted.
-  const CarriedEntry beside = entry_of(checkpoint());
-  const bool own = beside.device != 0 && beside == entry_of(resolved_ / kCheckpointFile);
+  const FileStamp beside = stamp_of(checkpoint());
+  const bool own = beside.device != 0 && beside == checkpoint_written_;
   const bool resumed =
       resumed_from_checkpoint && beside.device != 0 && beside == checkpoint_at_start_;
   std::error_code ec;

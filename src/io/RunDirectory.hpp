@@ -27,6 +27,7 @@
 // points to (created when missing), which the run replaces or amends.
 #include <sys/types.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -64,6 +65,16 @@ struct CarriedEntry {
   friend bool operator==(const CarriedEntry&, const CarriedEntry&) = default;
 };
 
+/// What tells a file from one put in its place or written over: its inode,
+/// size and modification time (all zero: no file).
+struct FileStamp {
+  dev_t device = 0;
+  ino_t inode = 0;
+  off_t size = 0;
+  std::int64_t modified_ns = 0;
+  friend bool operator==(const FileStamp&, const FileStamp&) = default;
+};
+
 class RunDirectory {
  public:
   /// The names (in DIR itself) that an amendment writes anew.
@@ -93,15 +104,15 @@ class RunDirectory {
   /// kept, for a restart (beside the directory a symbolic link DIR points to).
   [[nodiscard]] std::filesystem::path checkpoint() const;
   /// The run's last checkpoint, in the staging directory: published as
-  /// DIR/checkpoint.nc.  Each checkpoint written as checkpoint() is given this
-  /// name too at once (stage_checkpoint), so that what the run publishes is
-  /// what it wrote, whatever becomes of checkpoint() meanwhile (another
-  /// case's checkpoint put there was published as the run's own, with exit 0;
-  /// one removed failed the finished run).
+  /// DIR/checkpoint.nc.  Each checkpoint written as checkpoint() is copied
+  /// here at once (stage_checkpoint), so that what the run publishes is what
+  /// it wrote, whatever becomes of checkpoint() meanwhile (another case's
+  /// checkpoint put there, by a rename or written over it, was published as
+  /// the run's own with exit 0; one removed failed the finished run).
   [[nodiscard]] std::filesystem::path staged_checkpoint() const;
-  /// Makes staged_checkpoint() another name of checkpoint(), just written (a
-  /// copy where no link can be made).  Throws std::runtime_error naming it.
-  void stage_checkpoint() const;
+  /// Copies checkpoint(), just written, to staged_checkpoint() and notes
+  /// checkpoint()'s identity.  Throws std::runtime_error naming the file.
+  void stage_checkpoint();
   /// For a run that writes checkpoints: ConfigError when checkpoint() or its
   /// partial file is not ehlsim's: a symbolic link (a dangling one was
   /// replaced, then deleted), a directory, or a file that is no NetCDF-4 one
@@ -134,8 +145,9 @@ class RunDirectory {
   std::vector<CarriedEntry> carried_;           ///< amendment: what was carried over from DIR
   std::vector<CarriedEntry> entries_at_start_;  ///< new run: what DIR held when it began
   bool published_ = false;
-  /// checkpoint() when the run began (device 0: none), for publish.
-  CarriedEntry checkpoint_at_start_;
+  /// checkpoint() when the run began, and as the run last wrote it, for publish.
+  FileStamp checkpoint_at_start_;
+  FileStamp checkpoint_written_;
 
   /// Throws std::runtime_error when something was mounted in the staging directory.
   void refuse_mount_in_staging() const;

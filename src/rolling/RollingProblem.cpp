@@ -711,10 +711,13 @@ double stall_measure(const RollingCycle& c) {
 }
 
 /// The last kStalledRunCycles cycles of the last attempt on the finest grid
-/// of `history`, or nothing when it has fewer.
+/// of `history`, or nothing when it has fewer, or when the attempt is too
+/// young to judge (its first cycles are the iteration's start: with
+/// solver.max_cycles = 21, a run that converges with more was "stalled").
 std::optional<std::pair<const RollingCycle*, const RollingCycle*>> last_window(
     const std::vector<RollingCycle>& history) {
-  if (history.size() <= kStalledRunCycles || history.back().cycle <= kStalledRunCycles)
+  constexpr int kYoungestJudged = 2 * kStalledRunCycles;
+  if (history.size() <= kStalledRunCycles || history.back().cycle < kYoungestJudged)
     return std::nullopt;
   const RollingCycle& last = history.back();
   const RollingCycle& before = history[history.size() - 1 - kStalledRunCycles];
