@@ -513,11 +513,6 @@ void check_time_step_not_negligible(const Inputs& in, const ImpactConfig& c) {
                       dT, kShortestTimeStep));
 }
 
-/// A run until lift-off whose default step cap exceeds kMaxTimeSteps: the
-/// message says what would fit (a longer time step, within a quarter of the
-/// dry contact; a closer start), and names the key the user gave that one
-/// of them changes.  It blamed time.dT where no allowed dT would do, and
-/// time.V0 = 1 (the default) for a start far away.
 /// `x` rounded to three significant digits, up or down: the value a message
 /// shows must itself pass the check it suggests.
 double three_digits(double x, bool up) {
@@ -536,6 +531,12 @@ std::string step_cap_key(const Inputs& in, bool longer_step, bool closer) {
   return "time.Delta0";
 }
 
+/// A run until lift-off whose default step cap exceeds kMaxTimeSteps: the
+/// message says what would fit (a longer time step, within a quarter of the
+/// dry contact; a closer start the grid resolves), and names the key the user gave that one
+/// of them changes.  It blamed time.dT where no allowed dT would do, and
+/// time.V0 = 1 (the default) for a start far away; and its values must pass
+/// when applied.
 void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
   const double dT = effective_time_step(c);
   const double limit = kMaxTimeSteps;
