@@ -299,9 +299,10 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   problem.set_state_sink(config.checkpoint_every, [&](const ImpactState& state) {
     if (spare_earlier) return;
     write_checkpoint(run_dir.checkpoint(), state, parameters);
+    // Resumable from it even if the copy into the staging directory fails.
+    kept = {state.step, run_dir.checkpoint(), true, state.ball.T, {}};
     run_dir.stage_checkpoint();
     if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
-    kept = {state.step, run_dir.checkpoint(), true, state.ball.T, {}};
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);

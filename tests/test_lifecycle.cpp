@@ -393,9 +393,10 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
 /// end (mount needs root).
 class SmallTmpfs {
  public:
-  explicit SmallTmpfs(const fs::path& at, unsigned long flags = 0) : at_(at) {
+  explicit SmallTmpfs(const fs::path& at, unsigned long flags = 0, const std::string& size = "200k")
+      : at_(at) {
     fs::create_directories(at_);
-    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", flags, "size=200k") == 0;
+    mounted_ = mount("tmpfs", at_.c_str(), "tmpfs", flags, ("size=" + size).c_str()) == 0;
   }
   ~SmallTmpfs() {
     if (mounted_) umount(at_.c_str());
@@ -586,6 +587,21 @@ TEST(Lifecycle, AFullDiskEndsWithOneLineAndNoCrash) {
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work / "disk"), std::set<std::string>{"run"});
+  // Room for a checkpoint, not for its copy in the staging directory: it
+  // said "Input/output error", with no resume line for the checkpoint left.
+  const SmallTmpfs tight(work / "tight", 0, "120k");
+  const fs::path d = work / "tight" / "d";
+  const Result copy = ehlsim(
+      "impact --quiet --set grid.points=33 --set time.dT=0.01 --set output.checkpoint_every=7 "
+      "--out " +
+      quote(d.string()));
+  EXPECT_EQ(copy.exit_code, 1);
+  EXPECT_NE(copy.err.find("after time step 7 (T = 0.07): cannot copy '"), std::string::npos)
+      << copy.err;
+  EXPECT_NE(copy.err.find("No space left on device; resume from the checkpoint of step 7 with: "),
+            std::string::npos)
+      << copy.err;
+  EXPECT_EQ(names_in(work / "tight"), std::set<std::string>{"d.checkpoint.nc"});
 }
 
 /// A place no run can write into (issue 10: "permissions"): a read-only

@@ -681,15 +681,23 @@ TEST(RunawayInputs, AStartTooSlowOrTooFarIsRefusedBeforeAnyWork) {
       "--set time.dT=1e-6 --set time.Delta0=1e9",
       too_many("time.Delta0 = 1000000000",
                "time.Delta0 = 1e+09 at time.V0 = 1 with time steps of dT = 1e-06", "4e+15",
-               "a closer start with a longer time.dT (at most 0.804)"));
-  // A closer start the grid would not resolve is not offered; the key named
-  // is one the user gave (it was time.Delta0 = 1, the default).
+               "a time.Delta0 of 2e+06 or less with a time.dT of 0.804"));
+  // A closer start the grid would not resolve, or a waviness would cut, is
+  // not offered; the key named is one the user gave (it was time.Delta0 = 1,
+  // the default).
+  expect_refused_at_once(
+      "--set time.V0=1e-6 --set time.Delta0=1e4 --set grid.half_width=1000 --set grid.points=17 "
+      "--set time.dT=1e-3",
+      "time.Delta0 = 10000: a run until lift-off from time.Delta0 = 10000 at time.V0 = 1e-06 with "
+      "time steps of dT = 0.001 may need 4e+13 time steps (the default time.max_steps, 4 (Delta0 / "
+      "V0 + 3.2181 V0^-0.2) / dT); at most 10000000 are allowed: set time.T_end or time.max_steps "
+      "(--set)");
   expect_refused_at_once(
       "--set time.V0=0.00779 --set time.Delta0=7.24e+06 --set time.dT=0.00437 --set "
       "grid.half_width=799 --set grid.points=17",
       too_many("time.Delta0 = 7240000",
                "time.Delta0 = 7.24e+06 at time.V0 = 0.00779 with time steps of dT = 0.00437",
-               "8.51e+11", "a closer start with a longer time.dT (at most 2.12)"));
+               "8.51e+11", "a time.Delta0 of 41200 or less with a time.dT of 2.12"));
   expect_refused_at_once(
       "--set body.elastic=false --set grid.half_width=1.2e-5 --set grid.points=17",
       too_many("grid.half_width = 1.2e-05",

@@ -400,10 +400,12 @@ void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
 /// The undeformed gap at T = 0, Delta0 + (X^2 + Y^2) / 2 + waviness, must be
 /// positive at every grid point: a start with the surfaces already through
 /// each other is no impact (model.md).  Only the waviness can make it negative.
-void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
-  if (!(c.waviness_amplitude > 0.0)) return;
+/// The waviness amplitude below which the undeformed gap of `c` at T = 0 is
+/// positive at every grid point (infinite without waviness).
+double largest_waviness_amplitude(const ImpactConfig& c) {
+  double largest = std::numeric_limits<double>::infinity();
+  if (!(c.waviness_amplitude > 0.0)) return largest;
   const Grid2D grid(c.grid_points, c.half_width);
-  double largest = std::numeric_limits<double>::infinity();  // amplitude that keeps the gap > 0
   for (int j = 0; j < grid.n; ++j) {
     for (int i = 0; i < grid.n; ++i) {
       const double x = grid.x(i), y = grid.y(j);
@@ -411,6 +413,12 @@ void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
       if (wave < 0.0) largest = std::min(largest, (c.Delta0 + 0.5 * (x * x + y * y)) / -wave);
     }
   }
+  return largest;
+}
+
+void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
+  if (!(c.waviness_amplitude > 0.0)) return;
+  const double largest = largest_waviness_amplitude(c);
   if (c.waviness_amplitude < largest) return;
   in.fail("surface.waviness_amplitude",
           fmt::format("must be < {:.6g} for time.Delta0 = {:g} on this grid (the undeformed gap "
@@ -537,6 +545,18 @@ std::string step_cap_key(const Inputs& in, bool longer_step, bool closer) {
 /// of them changes.  It blamed time.dT where no allowed dT would do, and
 /// time.V0 = 1 (the default) for a start far away; and its values must pass
 /// when applied.
+/// Whether the other checks let `c` start at `Delta0`: the grid resolves the
+/// film from there (check_mesh_resolves_the_film), and the waviness leaves
+/// the undeformed gap positive (check_undeformed_gap).
+bool may_start_at(const ImpactConfig& c, double Delta0) {
+  ImpactConfig closer = c;
+  closer.Delta0 = Delta0;
+  const double mesh = Grid2D(c.grid_points, c.half_width).h();
+  const double zone =
+      std::max(std::sqrt(2.0 * Delta0), c.elastic ? dry_largest_contact_radius(c.V0) : 0.0);
+  return mesh < zone && c.waviness_amplitude < largest_waviness_amplitude(closer);
+}
+
 void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
   const double dT = effective_time_step(c);
   const double limit = kMaxTimeSteps;
@@ -554,15 +574,22 @@ void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
       contact_steps < limit
           ? three_digits(c.Delta0 * (limit - contact_steps) / (steps - contact_steps), false)
           : 0.0;
-  // The grid must still resolve the film from there (check_mesh_resolves_the_film).
-  const double mesh = Grid2D(c.grid_points, c.half_width).h();
-  const double zone =
-      std::max(std::sqrt(2.0 * closest), c.elastic ? dry_largest_contact_radius(c.V0) : 0.0);
-  const bool closer = closest > 0.0 && mesh < zone;
+  const bool closer = closest > 0.0 && may_start_at(c, closest);
   if (closer) fixes.push_back(fmt::format("a time.Delta0 of {:g} or less", closest));
-  if (fixes.empty())
-    fixes.push_back(fmt::format("a closer start with a longer time.dT (at most {:g})",
-                                three_digits(longest, false)));
+  if (fixes.empty() && std::isfinite(longest)) {
+    // Both together, where the closest start the longest step allows may be taken.
+    const double step = three_digits(longest, false);
+    const double at_longest = default_max_steps_exact(c.Delta0, c.V0, step);
+    const double contact_at_longest = default_max_steps_exact(0.0, c.V0, step);
+    const double start = contact_at_longest < limit
+                             ? three_digits(c.Delta0 * (limit - contact_at_longest) /
+                                                (at_longest - contact_at_longest),
+                                            false)
+                             : 0.0;
+    if (start > 0.0 && may_start_at(c, start))
+      fixes.push_back(
+          fmt::format("a time.Delta0 of {:g} or less with a time.dT of {:g}", start, step));
+  }
   fixes.emplace_back("time.T_end or time.max_steps");
   in.fail(step_cap_key(in, longer_step, closer),
           fmt::format("a run until lift-off from time.Delta0 = {:g} at time.V0 = {:g} with "

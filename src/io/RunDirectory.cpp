@@ -235,6 +235,46 @@ void link_or_copy(const fs::path& from, const fs::path& to) {
   sync_path(to);
 }
 
+/// Copies the file `from` over `to` and syncs it.  Throws std::runtime_error
+/// naming both and the reason (std::filesystem::copy_file said "Input/output
+/// error" of a full disk).
+void copy_contents(const fs::path& from, const fs::path& to) {
+  const auto fail = [&](int error) {
+    throw std::runtime_error(fmt::format("cannot copy '{}' to '{}': {}", from.string(), to.string(),
+                                         system_message(error)));
+  };
+  const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) fail(errno);
+  const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0) {
+    const int error = errno;
+    ::close(in);
+    fail(error);
+  }
+  constexpr std::size_t kChunk = 1 << 20;
+  std::vector<char> buffer(kChunk);
+  int error = 0;
+  for (;;) {
+    const ssize_t got = ::read(in, buffer.data(), buffer.size());
+    if (got <= 0) {
+      error = got < 0 ? errno : 0;
+      break;
+    }
+    for (ssize_t done = 0; done < got && error == 0;) {
+      const ssize_t put = ::write(out, buffer.data() + done, static_cast<std::size_t>(got - done));
+      if (put < 0)
+        error = errno;
+      else
+        done += put;
+    }
+    if (error != 0) break;
+  }
+  if (error == 0 && ::fsync(out) != 0) error = errno;
+  ::close(in);
+  if (::close(out) != 0 && error == 0) error = errno;
+  if (error != 0) fail(error);
+}
+
 /// The stamp of the file `path` (links not followed); all zero when there is none.
 FileStamp stamp_of(const fs::path& path) {
   struct stat st {};
@@ -756,13 +796,7 @@ fs::path RunDirectory::staged_checkpoint() const { return staging_ / kCheckpoint
 
 void RunDirectory::stage_checkpoint() {
   // A copy, not a link: a file written over checkpoint() would change it too.
-  std::error_code ec;
-  fs::copy_file(checkpoint(), staged_checkpoint(), fs::copy_options::overwrite_existing, ec);
-  if (ec) {
-    throw std::runtime_error(fmt::format("cannot copy '{}' to '{}': {}", checkpoint().string(),
-                                         staged_checkpoint().string(), ec.message()));
-  }
-  sync_path(staged_checkpoint());
+  copy_contents(checkpoint(), staged_checkpoint());
   checkpoint_written_ = stamp_of(checkpoint());
 }
 
