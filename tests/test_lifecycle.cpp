@@ -761,8 +761,9 @@ TEST(Lifecycle, AnIOErrorInACheckpointEndsWithOneLineNamingIt) {
   const fs::path run = work / "run";
   ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
   const std::vector<std::string> before = contents(run);
-  // The first checkpoint of this run writes about 60 kB (five 33^2 fields).
-  const Result r = with_injected_eio(run, options, {"checkpoint.nc", 90'000});
+  // The first checkpoint of this run writes about 60 kB (five 33^2 fields),
+  // and as much again for its copy in the staging directory.
+  const Result r = with_injected_eio(run, options, {"checkpoint.nc", 150'000});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   const fs::path kept = work / "run.checkpoint.nc";
