@@ -256,14 +256,16 @@ void copy_contents(const fs::path& from, const fs::path& to) {
   int error = 0;
   for (;;) {
     const ssize_t got = ::read(in, buffer.data(), buffer.size());
+    if (got < 0 && errno == EINTR) continue;  // a signal the run acts on after the step
     if (got <= 0) {
       error = got < 0 ? errno : 0;
       break;
     }
     for (ssize_t done = 0; done < got && error == 0;) {
       const ssize_t put = ::write(out, buffer.data() + done, static_cast<std::size_t>(got - done));
-      if (put < 0)
-        error = errno;
+      if (put < 0 && errno == EINTR) continue;
+      if (put <= 0)
+        error = put < 0 ? errno : EIO;
       else
         done += put;
     }
