@@ -214,8 +214,7 @@ std::string resume_command(const ImpactOptions& options, const std::filesystem::
 struct KeptCheckpoint {
   int step = 0;  ///< 0: none
   std::filesystem::path path;
-  bool written = false;  ///< by this run (DIR.checkpoint.nc)
-  double T = 0.0;        ///< its time
+  double T = 0.0;  ///< its time
   /// An earlier run's DIR.checkpoint.nc that this run, keeping none, left as it was.
   std::filesystem::path spared;
 };
@@ -287,11 +286,11 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
   ObserverChain observers(chain);
   ImpactProblem problem(config);
   if (checkpoint) resume(*checkpoint, config, run_dir, problem, spike, output);
+  const bool resumed_beside = resumes_from(options, run_dir.checkpoint());
   // Without checkpoints asked for, a signal's checkpoint would replace an
   // earlier run's, perhaps the only copy of hours of work: that one stays.
   const bool spare_earlier = config.checkpoint_every <= 0 &&
-                             std::filesystem::exists(run_dir.checkpoint()) &&
-                             !resumes_from(options, run_dir.checkpoint());
+                             std::filesystem::exists(run_dir.checkpoint()) && !resumed_beside;
   if (spare_earlier) kept.spared = run_dir.checkpoint();
   // Checkpoints go to DIR.checkpoint.nc (for a restart after a failure or a
   // kill), and into the staging directory: DIR keeps the earlier run's until
@@ -300,13 +299,13 @@ RunSummary simulate(const ImpactOptions& options, const ImpactConfig& config,
     if (spare_earlier) return;
     write_checkpoint(run_dir.checkpoint(), state, parameters);
     // Resumable from it even if the copy into the staging directory fails.
-    kept = {state.step, run_dir.checkpoint(), true, state.ball.T, {}};
+    kept = {state.step, run_dir.checkpoint(), state.ball.T, {}};
     run_dir.stage_checkpoint();
     if (config.checkpoint_every > 0) output.add_file("checkpoint", kCheckpointFile);
   });
   const RunSummary summary = problem.run(observers);
   if (!output.committed()) observers.on_finish(summary);
-  run_dir.publish(resumes_from(options, run_dir.checkpoint()));
+  run_dir.publish(resumed_beside);
   if (!options.quiet) {
     print_summary(summary, output, run_dir.target());
     cli::print_warnings(summary.warnings);
@@ -482,7 +481,7 @@ int run_impact(const ImpactOptions& options) {
   // from the one it started from.
   KeptCheckpoint kept;
   if (checkpoint)
-    kept = {checkpoint->state.step, options.restart_file, false, checkpoint->state.ball.T, {}};
+    kept = {checkpoint->state.step, options.restart_file, checkpoint->state.ball.T, {}};
   LastStep last =
       checkpoint ? LastStep(checkpoint->state.step, checkpoint->state.ball.T) : LastStep();
   try {
