@@ -221,23 +221,9 @@ void remove_debris(const fs::path& target) {
   }
 }
 
-/// `to` as another name of the file `from` (a symbolic link followed: a
-/// restart file given by a relative link was published as that link,
-/// dangling in DIR), or a copy of it where no link can be made.
-void link_or_copy(const fs::path& from, const fs::path& to) {
-  if (linkat(AT_FDCWD, from.c_str(), AT_FDCWD, to.c_str(), AT_SYMLINK_FOLLOW) == 0) return;
-  std::error_code ec;
-  fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
-  if (ec) {
-    throw std::runtime_error(
-        fmt::format("cannot copy '{}' to '{}': {}", from.string(), to.string(), ec.message()));
-  }
-  sync_path(to);
-}
-
-/// Copies the file `from` over `to` and syncs it.  Throws std::runtime_error
-/// naming both and the reason (std::filesystem::copy_file said "Input/output
-/// error" of a full disk).
+/// Copies the file `from` over `to`, with its permissions, and syncs it.
+/// Throws std::runtime_error naming both and the reason
+/// (std::filesystem::copy_file said "Input/output error" of a full disk).
 void copy_contents(const fs::path& from, const fs::path& to) {
   const auto fail = [&](int error) {
     throw std::runtime_error(fmt::format("cannot copy '{}' to '{}': {}", from.string(), to.string(),
@@ -245,16 +231,24 @@ void copy_contents(const fs::path& from, const fs::path& to) {
   };
   const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
   if (in < 0) fail(errno);
-  const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  struct stat source {};
+  if (::fstat(in, &source) != 0) {
+    const int error = errno;
+    ::close(in);
+    fail(error);
+  }
+  constexpr mode_t kPermissionBits = 07777;
+  const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
+                         source.st_mode & kPermissionBits);
   if (out < 0) {
     const int error = errno;
     ::close(in);
     fail(error);
   }
+  int error = ::fchmod(out, source.st_mode & kPermissionBits) == 0 ? 0 : errno;  // umask aside
   constexpr std::size_t kChunk = 1 << 20;
   std::vector<char> buffer(kChunk);
-  int error = 0;
-  for (;;) {
+  while (error == 0) {
     const ssize_t got = ::read(in, buffer.data(), buffer.size());
     if (got < 0 && errno == EINTR) continue;  // a signal the run acts on after the step
     if (got <= 0) {
@@ -269,12 +263,18 @@ void copy_contents(const fs::path& from, const fs::path& to) {
       else
         done += put;
     }
-    if (error != 0) break;
   }
   if (error == 0 && ::fsync(out) != 0) error = errno;
   ::close(in);
   if (::close(out) != 0 && error == 0) error = errno;
   if (error != 0) fail(error);
+}
+
+/// `to` as another name of the regular file `from`, or a copy of it where no
+/// link can be made.
+void link_or_copy(const fs::path& from, const fs::path& to) {
+  if (link(from.c_str(), to.c_str()) == 0) return;
+  copy_contents(from, to);
 }
 
 /// The stamp of the file `path` (links not followed); all zero when there is none.
