@@ -760,13 +760,18 @@ constexpr double kPromisingCyclesFactor = 10.0;
 /// more after 120 and needed 348; 0.03 after 50, 237 and 256).
 constexpr double kMoreCyclesMargin = 1.25;
 
-/// The cycles the last cycle's measure needs to reach `tolerance` at the
-/// steady rate of `history`'s last window, if it has one.
-std::optional<double> cycles_to_converge(const std::vector<RollingCycle>& history,
-                                         double tolerance) {
+/// A steady rate of `history`'s last window, and the cycles the last
+/// cycle's measure needs to reach `tolerance` at it.
+struct SteadyProgress {
+  double rate = 1.0;
+  double more_cycles = 0.0;
+};
+std::optional<SteadyProgress> steady_progress(const std::vector<RollingCycle>& history,
+                                              double tolerance) {
   const std::optional<double> rate = steady_rate(history);
   if (!rate || !(*rate < 1.0)) return std::nullopt;
-  return std::log(tolerance / stall_measure(history.back())) / std::log(*rate);
+  return SteadyProgress{*rate,
+                        std::log(tolerance / stall_measure(history.back())) / std::log(*rate)};
 }
 
 /// What the last cycles of a run out of cycles tell, or "": at round-off,
@@ -777,13 +782,13 @@ std::string progress_hint(const RollingConfig& c, const std::vector<RollingCycle
         "; its max(residual, |force error|), {:.2g}, is at round-off: solver.tolerance = {:g} is "
         "below what it can reach",
         stall_measure(history.back()), c.tolerance);
-  if (const std::optional<double> more = cycles_to_converge(history, c.tolerance)) {
-    const double needed = std::ceil(kMoreCyclesMargin * *more);
+  if (const std::optional<SteadyProgress> steady = steady_progress(history, c.tolerance)) {
+    const double needed = std::ceil(kMoreCyclesMargin * steady->more_cycles);
     const std::string converging = fmt::format(
         "; it was still converging, slowly (max(residual, |force error|) fell in each of its last "
         "{} cycles, by {:.2g} % of it per cycle)",
-        kStalledRunCycles, 100.0 * (1.0 - *steady_rate(history)));
-    if (*more <= kPromisingCyclesFactor * c.max_cycles)
+        kStalledRunCycles, 100.0 * (1.0 - steady->rate));
+    if (steady->more_cycles <= kPromisingCyclesFactor * c.max_cycles)
       return converging + fmt::format(
                               ": about {:.0f} more cycles may reach solver.tolerance (raise "
                               "solver.max_cycles to {:.0f})",
