@@ -28,6 +28,8 @@ constexpr std::string_view kDirect = "direct";
 constexpr std::string_view kArithmetic = "arithmetic";
 constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
+/// solver.coarse_face_mean: the coarse levels take solver.face_mean.
+constexpr std::string_view kSameFaceMean = "same";
 constexpr std::string_view kLinesAlternating = "alternating";
 constexpr std::string_view kLinesX = "x";
 }  // namespace
@@ -90,6 +92,9 @@ SolverSettings assemble_solver(const Inputs& in) {
   c.relaxation.deformation_each_colour =
       in.get<std::string>("solver.deformation_updates") == reynolds::kUpdatesPerColour;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
+  if (const std::string coarse = in.get<std::string>("solver.coarse_face_mean");
+      coarse != kSameFaceMean)
+    c.coarse_face_mean = face_mean_from_text(coarse);
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
   c.memory_limit_mb = in.optional_real("solver.memory_limit_mb").value_or(0.0);
@@ -206,6 +211,12 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
+  r.push_back(choice("solver.coarse_face_mean", kSameFaceMean,
+                     {std::string(kSameFaceMean), std::string(kArithmetic), std::string(kHarmonic),
+                      std::string(kLogarithmic)},
+                     "face mean of the coarse multigrid levels: same (solver.face_mean) or one of "
+                     "its means; changes the iteration, not its solution (logarithmic: less work "
+                     "for impacts at L >= 20; not for the rolling contact, docs/performance.md)"));
   r.push_back(real("solver.memory_limit_mb", kNoDefault,
                    "the available memory (MemAvailable of /proc/meminfo)", above(0), kUnbounded,
                    "MB",
@@ -374,6 +385,8 @@ nlohmann::json solver_settings_json(const SolverSettings& c) {
           {"deformation_updates",
            reynolds::deformation_updates_text(c.relaxation.deformation_each_colour)},
           {"face_mean", face_mean_text(c.face_mean)},
+          {"coarse_face_mean",
+           c.coarse_face_mean ? face_mean_text(*c.coarse_face_mean) : kSameFaceMean},
           {"memory_limit_mb",
            c.memory_limit_mb > 0.0 ? nlohmann::json(c.memory_limit_mb) : nlohmann::json(nullptr)},
           {"local_newton", c.local_newton_half_width},

@@ -16,15 +16,20 @@ namespace ehlsim {
 class ReynoldsHierarchy {
  public:
   /// Levels by standard coarsening of `finest` until the (full) grid has at
-  /// most settings.coarsest_points per side.
+  /// most settings.coarsest_points per side; the coarse levels with
+  /// settings.coarse_face_mean where it is set.
   ReynoldsHierarchy(const Grid2D& finest, const Lubricant& lubricant,
                     const reynolds::OperatorSettings& op,
                     const reynolds::RelaxationSettings& relaxation,
                     const SolverSettings& settings) {
     Grid2D g = finest;
     std::vector<multigrid::FasLevel*> raw;
+    // The coarse levels may take another face mean (solver.coarse_face_mean).
+    reynolds::OperatorSettings coarse_op = op;
+    coarse_op.face_mean = settings.coarse_face_mean.value_or(op.face_mean);
     while (true) {
-      levels_.push_back(std::make_unique<ReynoldsFasLevel>(g, lubricant, op, relaxation));
+      levels_.push_back(std::make_unique<ReynoldsFasLevel>(
+          g, lubricant, levels_.empty() ? op : coarse_op, relaxation));
       raw.push_back(levels_.back().get());
       if (g.full().n <= settings.coarsest_points || !g.coarser().coarsenable()) break;
       g = g.coarser();

@@ -1,6 +1,8 @@
 #pragma once
 // The multigrid settings every mode reads from its [solver] section (declared
 // once for all modes: config/ParameterSet.hpp, add_solver_parameters).
+#include <optional>
+
 #include "reynolds/FaceMean.hpp"
 #include "reynolds/LineRelaxation.hpp"
 
@@ -19,6 +21,10 @@ struct SolverSettings {
   DeformationMethod deformation = DeformationMethod::Fft;
   reynolds::RelaxationSettings relaxation;  ///< switch and under-relaxation (defaults there)
   FaceMean face_mean = FaceMean::Arithmetic;
+  /// The face mean of the coarse multigrid levels; none: face_mean.  The
+  /// coarse operators only carry corrections (FAS), so this changes the
+  /// iteration, not the solution it converges to.
+  std::optional<FaceMean> coarse_face_mean;
   /// Refuse a run whose memory estimate exceeds this [MB]; 0: the machine's
   /// available memory (io/MemoryGuard.hpp).
   double memory_limit_mb = 0.0;
