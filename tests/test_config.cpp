@@ -411,6 +411,22 @@ TEST(RegistryErrors, ANumberTooSmallForADoubleIsNamedAsWritten) {
             "case.L = -9223372036854775809" + too_large);
   EXPECT_EQ(set_error({"case.L=-9223372036854775808"}),
             "case.L = -9223372036854775808: must be >= 0 (--set)");
+  // ... in hexadecimal, octal or binary, with '_' between digits, or as an
+  // element of an array (shown quoted before, as if it were text).
+  EXPECT_EQ(set_error({"case.M=0xFFFFFFFFFFFFFFFFFF"}),
+            "case.M = 0xFFFFFFFFFFFFFFFFFF" + too_large);
+  EXPECT_EQ(set_error({"time.max_steps=0x8000000000000000"}),
+            "time.max_steps = 0x8000000000000000" + too_large);
+  EXPECT_EQ(set_error({"time.max_steps=0x7FFF_FFFF_FFFF_FFFF"}),
+            "time.max_steps = 9223372036854775807: must be in [1, 10000000] (--set)");
+  EXPECT_EQ(set_error({"time.max_steps=1_000_000_000_000_000_000_000"}),
+            "time.max_steps = 1_000_000_000_000_000_000_000" + too_large);
+  EXPECT_EQ(set_error({"output.snapshot_times=[1, 0o7777777777777777777777]"}),
+            "output.snapshot_times = [1, 0o7777777777777777777777]: 0o7777777777777777777777 " +
+                too_large.substr(2));
+  EXPECT_EQ(set_error({"output.snapshot_times=[1,99999999999999999999 ]"}),
+            "output.snapshot_times = [1,99999999999999999999 ]: 99999999999999999999 " +
+                too_large.substr(2));
   EXPECT_EQ(set_error({"grid.points=0099"}),
             "grid.points = \"0099\": must be an integer 2^k + 1 "
             "between 9 and 4097 (--set)");

@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <system_error>
@@ -472,17 +473,47 @@ bool overflows(const std::string& literal) {
   return errno == ERANGE && std::isinf(v) && end == literal.c_str() + literal.size();
 }
 
-/// Whether `literal` is a decimal integer beyond 64 bits
-/// (18446744073709551615): TOML refuses to read it, and it was shown quoted,
-/// as if it were text.
-bool overflows_integer(const std::string& literal) {
-  const std::size_t digits = literal.find_first_not_of("+-") == 1 ? 1 : 0;
-  if (literal.size() <= digits ||
-      literal.find_first_not_of("0123456789", digits) != std::string::npos)
+/// Whether `literal` is a TOML integer beyond 64 bits: decimal
+/// (18446744073709551615), or hexadecimal, octal or binary (0x, 0o, 0b; TOML
+/// allows no sign there), with or without '_' between digits.  TOML refuses
+/// to read it, and it was shown quoted, as if it were text.
+bool overflows_integer(std::string literal) {
+  std::erase(literal, '_');
+  int base = 10;
+  std::size_t digits = literal.find_first_not_of("+-") == 1 ? 1 : 0;
+  if (literal.size() > 2 && literal[0] == '0' &&
+      std::string_view("xob").find(literal[1]) != std::string_view::npos) {
+    base = literal[1] == 'x' ? 16 : literal[1] == 'o' ? 8 : 2;
+    digits = 2;
+  }
+  const std::string_view allowed =
+      std::string_view("0123456789abcdefABCDEF")
+          .substr(0, base == 16 ? std::string_view::npos : static_cast<std::size_t>(base));
+  if (literal.size() <= digits || literal.find_first_not_of(allowed, digits) != std::string::npos)
     return false;
   errno = 0;
-  (void)std::strtoll(literal.c_str(), nullptr, 10);
-  return errno == ERANGE;
+  if (base == 10) {
+    (void)std::strtoll(literal.c_str(), nullptr, 10);
+    return errno == ERANGE;
+  }
+  const unsigned long long v = std::strtoull(literal.c_str() + digits, nullptr, base);
+  return errno == ERANGE || v > static_cast<unsigned long long>(INT64_MAX);
+}
+
+/// The first integer beyond 64 bits in an override's value: the value
+/// itself, or an element of an array.
+std::optional<std::string> integer_beyond_64_bits(const std::string& value) {
+  constexpr std::string_view kSeparators = "[], \t";
+  std::size_t at = 0;
+  while (at < value.size()) {
+    const std::size_t begin = value.find_first_not_of(kSeparators, at);
+    if (begin == std::string::npos) break;
+    const std::size_t end = std::min(value.find_first_of(kSeparators, begin), value.size());
+    std::string token = value.substr(begin, end - begin);
+    if (overflows_integer(token)) return token;
+    at = end;
+  }
+  return std::nullopt;
 }
 
 [[noreturn]] void fail_underflow(const std::string& key, std::string_view literal,
@@ -649,10 +680,12 @@ std::optional<toml::table> parse_override_value(const std::string& key, const st
   if (parsed && (parsed->size() != 1 || !parsed->contains("v"))) parsed.reset();
   if (parsed && underflowed(*parsed->get("v"), value))
     fail_underflow(key, value, std::string(origin));
-  if (!parsed && overflows_integer(value)) {
+  if (const std::optional<std::string> beyond =
+          parsed ? std::nullopt : integer_beyond_64_bits(value)) {
     fail_value(key, value,
-               fmt::format("is beyond the range of an integer (magnitudes up to {}; a larger "
+               fmt::format("{}is beyond the range of an integer (magnitudes up to {}; a larger "
                            "number is written with an exponent, such as 1e30)",
+                           *beyond == value ? "" : *beyond + " ",
                            std::numeric_limits<std::int64_t>::max()),
                std::string(origin));
   }
