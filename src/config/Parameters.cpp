@@ -397,9 +397,6 @@ void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
   c.roelands_z = lub.roelands_z;
 }
 
-/// The undeformed gap at T = 0, Delta0 + (X^2 + Y^2) / 2 + waviness, must be
-/// positive at every grid point: a start with the surfaces already through
-/// each other is no impact (model.md).  Only the waviness can make it negative.
 /// The waviness amplitude below which the undeformed gap of `c` at T = 0 is
 /// positive at every grid point (infinite without waviness).
 double largest_waviness_amplitude(const ImpactConfig& c) {
@@ -416,8 +413,10 @@ double largest_waviness_amplitude(const ImpactConfig& c) {
   return largest;
 }
 
+/// The undeformed gap at T = 0, Delta0 + (X^2 + Y^2) / 2 + waviness, must be
+/// positive at every grid point: a start with the surfaces already through
+/// each other is no impact (model.md).  Only the waviness can make it negative.
 void check_undeformed_gap(const Inputs& in, const ImpactConfig& c) {
-  if (!(c.waviness_amplitude > 0.0)) return;
   const double largest = largest_waviness_amplitude(c);
   if (c.waviness_amplitude < largest) return;
   in.fail("surface.waviness_amplitude",
@@ -539,12 +538,6 @@ std::string step_cap_key(const Inputs& in, bool longer_step, bool closer) {
   return "time.Delta0";
 }
 
-/// A run until lift-off whose default step cap exceeds kMaxTimeSteps: the
-/// message says what would fit (a longer time step, within a quarter of the
-/// dry contact; a closer start the grid resolves), and names the key the user gave that one
-/// of them changes.  It blamed time.dT where no allowed dT would do, and
-/// time.V0 = 1 (the default) for a start far away; and its values must pass
-/// when applied.
 /// Whether the other checks let `c` start at `Delta0`: the grid resolves the
 /// film from there (check_mesh_resolves_the_film), and the waviness leaves
 /// the undeformed gap positive (check_undeformed_gap).
@@ -557,6 +550,24 @@ bool may_start_at(const ImpactConfig& c, double Delta0) {
   return mesh < zone && c.waviness_amplitude < largest_waviness_amplitude(closer);
 }
 
+/// The furthest start from which a run of `c` until lift-off with steps of
+/// `dT` stays within kMaxTimeSteps (rounded down), or 0 where the contact
+/// alone needs more: the steps of the contact stay, those of the flight
+/// before it grow with Delta0.
+double closest_start(const ImpactConfig& c, double dT) {
+  const double limit = kMaxTimeSteps;
+  const double steps = default_max_steps_exact(c.Delta0, c.V0, dT);
+  const double contact_steps = default_max_steps_exact(0.0, c.V0, dT);
+  if (!(contact_steps < limit)) return 0.0;
+  return three_digits(c.Delta0 * (limit - contact_steps) / (steps - contact_steps), false);
+}
+
+/// A run until lift-off whose default step cap exceeds kMaxTimeSteps: the
+/// message says what would fit (a longer time step, within a quarter of the
+/// dry contact; a closer start the grid resolves), and names the key the user gave that one
+/// of them changes.  It blamed time.dT where no allowed dT would do, and
+/// time.V0 = 1 (the default) for a start far away; and its values must pass
+/// when applied.
 void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
   const double dT = effective_time_step(c);
   const double limit = kMaxTimeSteps;
@@ -568,24 +579,13 @@ void check_default_step_cap(const Inputs& in, const ImpactConfig& c) {
   const double needed_dT = three_digits(steps / limit * dT, true);
   const bool longer_step = needed_dT <= longest;
   if (longer_step) fixes.push_back(fmt::format("a time.dT of {:g} or more", needed_dT));
-  // The steps of the contact; those of the flight before it grow with Delta0.
-  const double contact_steps = default_max_steps_exact(0.0, c.V0, dT);
-  const double closest =
-      contact_steps < limit
-          ? three_digits(c.Delta0 * (limit - contact_steps) / (steps - contact_steps), false)
-          : 0.0;
+  const double closest = closest_start(c, dT);
   const bool closer = closest > 0.0 && may_start_at(c, closest);
   if (closer) fixes.push_back(fmt::format("a time.Delta0 of {:g} or less", closest));
   if (fixes.empty() && std::isfinite(longest)) {
     // Both together, where the closest start the longest step allows may be taken.
     const double step = three_digits(longest, false);
-    const double at_longest = default_max_steps_exact(c.Delta0, c.V0, step);
-    const double contact_at_longest = default_max_steps_exact(0.0, c.V0, step);
-    const double start = contact_at_longest < limit
-                             ? three_digits(c.Delta0 * (limit - contact_at_longest) /
-                                                (at_longest - contact_at_longest),
-                                            false)
-                             : 0.0;
+    const double start = closest_start(c, step);
     if (start > 0.0 && may_start_at(c, start))
       fixes.push_back(
           fmt::format("a time.Delta0 of {:g} or less with a time.dT of {:g}", start, step));
