@@ -755,6 +755,16 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "integer (magnitudes up to 9223372036854775807; a larger number is written "
                    "with an exponent, such as 1e30) (parameters of '" +
                        empty + "/run.json')");
+  // A setting too small for a double was read as 0 and analysed with it.
+  std::string tiny = ehlsim::testing::minimal_run_json(
+      {{"parameters", {{"spike", {{"min_prominence", 12345.0}}}}}});
+  tiny.replace(tiny.find("12345.0"), 7, "1e-400");
+  write_file(dir / "empty" / "run.json", tiny);
+  expect_bad_input(ehlsim("spike --quiet " + quote(empty)),
+                   "cannot read '" + empty +
+                       "/run.json': parameters.spike.min_prominence = 1e-400 is too small for a "
+                       "double, which would read it as 0 (the smallest positive double is "
+                       "4.94066e-324)");
   write_file(dir / "empty" / "run.json", kMinimalRun);
   expect_bad_input(ehlsim("spike --quiet " + quote(empty) + " --set spike.filter=y"),
                    "spike.filter = \"y\": must be one of \"butterworth\", \"gaussian\", "

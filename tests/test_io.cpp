@@ -47,6 +47,7 @@
 #include "io/MemoryGuard.hpp"
 #include "io/NetcdfStatus.hpp"
 #include "io/ProgressLine.hpp"
+#include "io/RangeCheckedJson.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
@@ -96,6 +97,46 @@ StepRecord record(int step, double T) {
   r.cycles = step + 2;
   r.residual = 1.234567890123e-9;
   return r;
+}
+
+namespace {
+
+/// The ConfigError of parse_range_checked_json on `text`, or "" if none.
+std::string json_error(const std::string& text) {
+  std::istringstream in(text);
+  try {
+    (void)ehlsim::parse_range_checked_json(in, "f.json");
+  } catch (const ehlsim::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(RangeCheckedJson, ANumberOutOfTheRangeOfADoubleIsNamedWithItsKey) {
+  // The parser read 1e-400 as 0 without a word, and refused 1e400 without
+  // naming the key.
+  EXPECT_EQ(json_error(R"({"parameters": {"spike": {"min_prominence": 1e-400}}})"),
+            "cannot read 'f.json': parameters.spike.min_prominence = 1e-400 " +
+                ehlsim::double_underflow_reason());
+  EXPECT_EQ(json_error(R"({"a": [1, {"b": [2, -1E400]}]})"),
+            "cannot read 'f.json': a[1].b[1] = -1E400 " + ehlsim::double_overflow_reason());
+  EXPECT_EQ(json_error("-2.5e-999"),
+            "cannot read 'f.json': the value = -2.5e-999 " + ehlsim::double_underflow_reason());
+  // Zero written as such, and the smallest doubles, are numbers.
+  for (const char* fine : {"0.0e-500", "-0.0", "4.9e-324", "1.7e308"}) {
+    std::istringstream in(fmt::format(R"({{"x": [{{}}, [], {}]}})", fine));
+    const nlohmann::json j = ehlsim::parse_range_checked_json(in, "f.json");
+    EXPECT_EQ(j.at("x").at(2).get<double>(), std::strtod(fine, nullptr)) << fine;
+  }
+  // The rest of the document as the parser reads it.
+  std::istringstream in(R"({"s": "t", "n": null, "b": true, "i": -3, "u": 18446744073709551615})");
+  EXPECT_EQ(ehlsim::parse_range_checked_json(in, "f.json"), nlohmann::json::parse(in.str()));
+  // Text that is no JSON: the parser's message, naming the file.
+  EXPECT_EQ(json_error(R"({"a": })").rfind("cannot read 'f.json': [json.exception.parse_error", 0),
+            0u);
+  EXPECT_NE(json_error("{} x").find("parse_error"), std::string::npos);
 }
 
 TEST(Writers, TimeSeriesHeaderRowsAndAtomicRename) {

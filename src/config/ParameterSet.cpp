@@ -36,6 +36,17 @@ std::string echo_input(std::string_view text) {
   return fmt::format("{}... ({} bytes)", text.substr(0, cut), text.size());
 }
 
+std::string double_underflow_reason() {
+  return fmt::format(
+      "is too small for a double, which would read it as 0 (the smallest positive double is {:g})",
+      std::numeric_limits<double>::denorm_min());
+}
+
+std::string double_overflow_reason() {
+  return fmt::format("is beyond the range of a double (magnitudes up to {:g})",
+                     std::numeric_limits<double>::max());
+}
+
 namespace {
 /// The largest config file read: a case is a few hundred bytes, a long
 /// output.snapshot_times list some kB; a runaway value of 10 MB is still read
@@ -518,11 +529,7 @@ std::optional<std::string> integer_beyond_64_bits(const std::string& value) {
 
 [[noreturn]] void fail_underflow(const std::string& key, std::string_view literal,
                                  const std::string& origin) {
-  fail_value(key, std::string(literal),
-             fmt::format("is too small for a double, which would read it as 0 (the smallest "
-                         "positive double is {:g})",
-                         std::numeric_limits<double>::denorm_min()),
-             origin);
+  fail_value(key, std::string(literal), double_underflow_reason(), origin);
 }
 
 /// The literal of `node` in the config file whose lines are `lines`.
@@ -690,10 +697,7 @@ std::optional<toml::table> parse_override_value(const std::string& key, const st
                std::string(origin));
   }
   if (!parsed && overflows(value)) {
-    fail_value(key, value,
-               fmt::format("is beyond the range of a double (magnitudes up to {:g})",
-                           std::numeric_limits<double>::max()),
-               std::string(origin));
+    fail_value(key, value, double_overflow_reason(), std::string(origin));
   }
   return parsed;
 }

@@ -45,6 +45,11 @@ class ConfigError : public std::runtime_error {
 inline constexpr std::size_t kEchoMaxChars = 80;
 [[nodiscard]] std::string echo_input(std::string_view text);
 
+/// Why a nonzero number written too small for a double (1e-400), and one
+/// beyond its range (1e400), is refused: the same words for every input.
+[[nodiscard]] std::string double_underflow_reason();
+[[nodiscard]] std::string double_overflow_reason();
+
 enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
 
 /// A parameter value as the registry stores it (defaults, validated inputs).

@@ -19,6 +19,7 @@
 #include "io/FieldReader.hpp"
 #include "io/Interrupt.hpp"
 #include "io/IsolatedIo.hpp"
+#include "io/RangeCheckedJson.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
@@ -38,11 +39,7 @@ nlohmann::json read_run_json(const std::filesystem::path& path) {
                     "is written last, when the run has finished)",
                     path.string()));
   }
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw ConfigError(fmt::format("cannot read '{}': {}", path.string(), e.what()));
-  }
+  return parse_range_checked_json(in, path.string());
 }
 
 namespace {
