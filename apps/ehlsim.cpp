@@ -128,11 +128,14 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
             c.Delta0, c.V0);
   print_out(
       "  solver     {}({},{}) cycles, tolerance {:g}, at most {} cycles/step, coarsest {}^2, "
-      "deformation {} (once per {}), lines {}\n",
+      "deformation {} (once per {}), lines {}{}\n",
       cycle_type_text(c.cycle), c.pre_sweeps, c.post_sweeps, c.tolerance, c.max_cycles,
       c.coarsest_points, deformation_method_text(c.deformation),
       c.relaxation.deformation_each_colour ? "colour" : "sweep",
-      c.relaxation.alternate_directions ? "along X and Y in turn" : "along X");
+      c.relaxation.alternate_directions ? "along X and Y in turn" : "along X",
+      c.coarse_face_mean
+          ? fmt::format(", {} face mean on the coarse levels", face_mean_text(*c.coarse_face_mean))
+          : std::string());
   print_out("  output     fields every {} steps{}\n", c.snapshot_every,
             c.snapshot_times.empty()
                 ? std::string()

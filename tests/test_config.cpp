@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "config/Parameters.hpp"
+#include "config/RollingParameters.hpp"
 #include "dynamics/DryHertz.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/Scaling.hpp"
@@ -142,6 +143,37 @@ TEST(RegistryErrors, MoesGroupsMustBeNumbers) {
   // beyond the paper's cases, still load.
   EXPECT_NO_THROW((void)load_config(std::nullopt, {"case.M=1e-3"}));
   EXPECT_NO_THROW((void)load_config(std::nullopt, {"case.M=1e6"}));
+}
+
+TEST(Registry, AutoCoarseFaceMeanIsLogarithmicForImpactsFromL20) {
+  // The logarithmic coarse levels save work from L = 20 on and cost some at
+  // L = 10 (docs/performance.md); in the rolling contact they are harmful.
+  using ehlsim::FaceMean;
+  const auto coarse = [](std::vector<std::string> overrides) {
+    return load_config(std::nullopt, overrides).coarse_face_mean;
+  };
+  EXPECT_EQ(coarse({"case.L=20"}), FaceMean::Logarithmic);
+  EXPECT_EQ(coarse({"case.L=35", "solver.coarse_face_mean=auto"}), FaceMean::Logarithmic);
+  EXPECT_EQ(coarse({"case.L=19.9"}), std::nullopt);
+  EXPECT_EQ(coarse({}), std::nullopt);  // the default case, L = 10
+  EXPECT_EQ(coarse({"case.L=20", "solver.coarse_face_mean=same"}), std::nullopt);
+  EXPECT_EQ(coarse({"case.L=5", "solver.coarse_face_mean=harmonic"}), FaceMean::Harmonic);
+  // The L of a Roelands law's own pressure-viscosity decides too.
+  for (const char* z : {"lubricant.z=0.68", "lubricant.z=1.5"}) {
+    const ehlsim::ImpactConfig roelands = load_config(
+        std::nullopt,
+        {"lubricant.viscosity=roelands", "lubricant.eta0=0.04", "lubricant.ph_star=1e9", z});
+    EXPECT_EQ(roelands.coarse_face_mean,
+              roelands.L >= 20.0 ? std::optional(FaceMean::Logarithmic) : std::nullopt)
+        << z << ": L = " << roelands.L;
+  }
+  // run.json records the mean the run used.
+  EXPECT_EQ(ehlsim::effective_parameters_json(load_config(std::nullopt, {"case.L=20"}))
+                .at("solver")
+                .at("coarse_face_mean"),
+            "logarithmic");
+  EXPECT_EQ(ehlsim::load_rolling_config(std::nullopt, {"case.L=20"}).coarse_face_mean,
+            std::nullopt);
 }
 
 TEST(Registry, KeysAreUniqueDocumentedAndInKnownSections) {

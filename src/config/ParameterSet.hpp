@@ -231,12 +231,16 @@ void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettin
                            const std::string& tolerance_doc, const std::string& max_cycles_doc);
 /// The SolverSettings of validated [solver] inputs (checks coarsest_points
 /// against grid.points and pre_sweeps + post_sweeps >= 1).
-[[nodiscard]] SolverSettings assemble_solver(const Inputs& in);
+/// `auto_coarse_face_mean` is what solver.coarse_face_mean = "auto" gives
+/// in the mode and case (std::nullopt: the finest grid's mean).
+[[nodiscard]] SolverSettings assemble_solver(const Inputs& in,
+                                             std::optional<FaceMean> auto_coarse_face_mean);
 /// The TOML strings of the enumerations (as in the input files).
 [[nodiscard]] std::string_view viscosity_model_text(ViscosityModel model);
 [[nodiscard]] std::string_view density_model_text(DensityModel model);
 [[nodiscard]] std::string_view cycle_type_text(CycleType cycle);
 [[nodiscard]] std::string_view deformation_method_text(DeformationMethod method);
+[[nodiscard]] std::string_view face_mean_text(FaceMean mean);
 
 /// The echo of the SolverSettings for run.json.
 [[nodiscard]] nlohmann::json solver_settings_json(const SolverSettings& settings);

@@ -227,7 +227,8 @@ RollingConfig load_rolling_config(const std::optional<std::filesystem::path>& fi
   assemble_rolling_case(in, c);
   assemble_rolling_grid(in, c);
   check_dry_contact_resolved(in, c);
-  static_cast<SolverSettings&>(c) = assemble_solver(in);
+  // The logarithmic coarse levels are harmful here (docs/performance.md).
+  static_cast<SolverSettings&>(c) = assemble_solver(in, std::nullopt);
   c.h0_relaxation = in.real("solver.h0_relaxation");
   c.fmg_cycles = in.integer("solver.fmg_cycles");
   c.fallback_update = in.get<bool>("solver.fallback_update");

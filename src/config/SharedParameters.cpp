@@ -28,8 +28,10 @@ constexpr std::string_view kDirect = "direct";
 constexpr std::string_view kArithmetic = "arithmetic";
 constexpr std::string_view kHarmonic = "harmonic";
 constexpr std::string_view kLogarithmic = "logarithmic";
-/// solver.coarse_face_mean: the coarse levels take solver.face_mean.
+/// solver.coarse_face_mean: the coarse levels take solver.face_mean ...
 constexpr std::string_view kSameFaceMean = "same";
+/// ... or what the mode chooses for the case (assemble_solver).
+constexpr std::string_view kAutoFaceMean = "auto";
 constexpr std::string_view kLinesAlternating = "alternating";
 constexpr std::string_view kLinesX = "x";
 }  // namespace
@@ -45,6 +47,17 @@ std::string_view cycle_type_text(CycleType cycle) {
 }
 std::string_view deformation_method_text(DeformationMethod method) {
   return method == DeformationMethod::Direct ? kDirect : kFft;
+}
+std::string_view face_mean_text(FaceMean mean) {
+  switch (mean) {
+    case FaceMean::Harmonic:
+      return kHarmonic;
+    case FaceMean::Logarithmic:
+      return kLogarithmic;
+    case FaceMean::Arithmetic:
+      break;
+  }
+  return kArithmetic;
 }
 
 namespace {
@@ -62,20 +75,9 @@ FaceMean face_mean_from_text(std::string_view text) {
   if (text == kLogarithmic) return FaceMean::Logarithmic;
   return FaceMean::Arithmetic;
 }
-std::string_view face_mean_text(FaceMean mean) {
-  switch (mean) {
-    case FaceMean::Harmonic:
-      return kHarmonic;
-    case FaceMean::Logarithmic:
-      return kLogarithmic;
-    case FaceMean::Arithmetic:
-      break;
-  }
-  return kArithmetic;
-}
 }  // namespace
 
-SolverSettings assemble_solver(const Inputs& in) {
+SolverSettings assemble_solver(const Inputs& in, std::optional<FaceMean> auto_coarse_face_mean) {
   SolverSettings c;
   c.cycle = in.get<std::string>("solver.cycle") == kCycleW ? CycleType::W : CycleType::V;
   c.tolerance = in.real("solver.tolerance");
@@ -93,7 +95,9 @@ SolverSettings assemble_solver(const Inputs& in) {
       in.get<std::string>("solver.deformation_updates") == reynolds::kUpdatesPerColour;
   c.face_mean = face_mean_from_text(in.get<std::string>("solver.face_mean"));
   if (const std::string coarse = in.get<std::string>("solver.coarse_face_mean");
-      coarse != kSameFaceMean)
+      coarse == kAutoFaceMean)
+    c.coarse_face_mean = auto_coarse_face_mean;
+  else if (coarse != kSameFaceMean)
     c.coarse_face_mean = face_mean_from_text(coarse);
   c.deformation = in.get<std::string>("solver.deformation") == kDirect ? DeformationMethod::Direct
                                                                        : DeformationMethod::Fft;
@@ -211,13 +215,14 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                      {std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "flow coefficient on a cell face: arithmetic (Venner & Lubrecht), harmonic, "
                      "or logarithmic mean of the two points (exact flux for Barus at constant H)"));
-  r.push_back(choice("solver.coarse_face_mean", kSameFaceMean,
-                     {std::string(kSameFaceMean), std::string(kArithmetic), std::string(kHarmonic),
-                      std::string(kLogarithmic)},
-                     "face mean of the coarse multigrid levels: same (solver.face_mean) or one of "
-                     "its means; changes the iteration, not its solution (logarithmic: up to 27 % "
-                     "less work for impacts at L >= 20; harmful in the rolling contact; "
-                     "docs/performance.md)"));
+  r.push_back(choice("solver.coarse_face_mean", kAutoFaceMean,
+                     {std::string(kAutoFaceMean), std::string(kSameFaceMean),
+                      std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
+                     "face mean of the coarse multigrid levels: same (solver.face_mean), one of "
+                     "its means, or auto (logarithmic for an impact at L >= 20, where it saves "
+                     "8-27 % of the work and much more on 1025^2; else same: it is harmful in "
+                     "the rolling contact); changes the iteration, not its solution "
+                     "(docs/performance.md)"));
   r.push_back(real("solver.memory_limit_mb", kNoDefault,
                    "the available memory (MemAvailable of /proc/meminfo)", above(0), kUnbounded,
                    "MB",
