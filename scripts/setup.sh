@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config
+  ccache                  # compiler cache: CI rebuilds a clean clone (CMakeLists.txt)
   libfftw3-dev            # FFT convolution of the deformation integral
   liblapack-dev           # dense solves of the local Newton step (reference LAPACK)
   libtomlplusplus-dev     # configuration files
