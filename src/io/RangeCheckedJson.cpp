@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 
 #include <cstddef>
+#include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "config/ParameterSet.hpp"
@@ -11,8 +14,9 @@ namespace ehlsim {
 
 namespace {
 
-/// nlohmann::json's own DOM builder, with the path of the value being read
-/// and a check of each number's text.
+/// The DOM builder json::parse uses (nlohmann's json_sax_dom_parser), with
+/// the path of the value being read and a check of each number's text, which
+/// only the SAX interface shows.
 class RangeCheckingSax final : public nlohmann::json_sax<nlohmann::json> {
  public:
   RangeCheckingSax(nlohmann::json& result, std::string name)
