@@ -220,7 +220,7 @@ void add_solver_parameters(std::vector<ParameterSpec>& r, const SolverSettings& 
                       std::string(kArithmetic), std::string(kHarmonic), std::string(kLogarithmic)},
                      "face mean of the coarse multigrid levels: same (solver.face_mean), one of "
                      "its means, or auto (logarithmic for an impact at L >= 20, where it saves "
-                     "8-27 % of the work and much more on 1025^2; else same: it is harmful in "
+                     "7-27 % of the work and much more on 1025^2; else same: it is harmful in "
                      "the rolling contact); changes the iteration, not its solution "
                      "(docs/performance.md)"));
   r.push_back(real("solver.memory_limit_mb", kNoDefault,
