@@ -42,6 +42,11 @@ std::string double_underflow_reason() {
       std::numeric_limits<double>::denorm_min());
 }
 
+bool underflowed_to_zero(double value, std::string_view literal) {
+  const std::string_view mantissa = literal.substr(0, literal.find_first_of("eE"));
+  return value == 0.0 && mantissa.find_first_of("123456789") != std::string_view::npos;
+}
+
 std::string double_overflow_reason() {
   return fmt::format("is beyond the range of a double (magnitudes up to {:g})",
                      std::numeric_limits<double>::max());
@@ -469,9 +474,7 @@ std::string one_line(std::string_view text) {
 /// that was read as 0: "1e-400" gave "case.M = 0: must be > 0".
 bool underflowed(const toml::node& node, std::string_view literal) {
   const auto* f = node.as_floating_point();
-  if (f == nullptr || f->get() != 0.0) return false;
-  const std::string_view mantissa = literal.substr(0, literal.find_first_of("eE"));
-  return mantissa.find_first_of("123456789") != std::string_view::npos;
+  return f != nullptr && underflowed_to_zero(f->get(), literal);
 }
 
 /// Whether `literal` is a decimal number beyond the range of a double

@@ -49,6 +49,9 @@ inline constexpr std::size_t kEchoMaxChars = 80;
 /// beyond its range (1e400), is refused: the same words for every input.
 [[nodiscard]] std::string double_underflow_reason();
 [[nodiscard]] std::string double_overflow_reason();
+/// Whether `value`, read from the number written as `literal` (1e-400),
+/// is a 0 that the literal does not say: its mantissa has a nonzero digit.
+[[nodiscard]] bool underflowed_to_zero(double value, std::string_view literal);
 
 enum class ParameterType { Float, Int, Bool, Enum, FloatArray };
 

@@ -4,7 +4,6 @@
 
 #include <cstddef>
 #include <string>
-#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -27,9 +26,7 @@ class RangeCheckingSax final : public nlohmann::json_sax<nlohmann::json> {
   bool number_integer(number_integer_t v) override { return value_done(dom_.number_integer(v)); }
   bool number_unsigned(number_unsigned_t v) override { return value_done(dom_.number_unsigned(v)); }
   bool number_float(number_float_t v, const string_t& text) override {
-    const std::string_view mantissa = std::string_view(text).substr(0, text.find_first_of("eE"));
-    if (v == 0.0 && mantissa.find_first_of("123456789") != std::string_view::npos)
-      fail(text, double_underflow_reason());
+    if (underflowed_to_zero(v, text)) fail(text, double_underflow_reason());
     return value_done(dom_.number_float(v, text));
   }
   bool string(string_t& v) override { return value_done(dom_.string(v)); }
