@@ -25,6 +25,7 @@
 #include "support/MinimalRun.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
+#include "support/TestPaths.hpp"
 
 namespace {
 
@@ -34,6 +35,7 @@ using ehlsim::testing::ehlsim;
 using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
+using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
 
@@ -392,7 +394,7 @@ TEST(Cli, UsageDocumentsTheHelpVerbatim) {
   // docs/usage.md quotes `ehlsim impact --help` and `ehlsim rolling --help` in
   // full (scripts/sync_usage_help.py writes them): a new or changed option or
   // key must be documented there too.
-  const std::string usage = read_file(fs::path(EHLSIM_SOURCE_DIR) / "docs" / "usage.md");
+  const std::string usage = read_file(source_dir() / "docs" / "usage.md");
   for (const std::string command : {"impact", "rolling"}) {
     const Result help = ehlsim(command + " --help");
     ASSERT_EQ(help.exit_code, 0);
@@ -604,7 +606,7 @@ TEST(Cli, RestartRefusesADamagedCheckpoint) {
 }
 
 fs::path library_crash(const std::string& name) {
-  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+  return source_dir() / "tests" / "fuzz-library-crashes" / name;
 }
 
 /// Exit 2 and one line "ehlsim: error: <prefix>the NetCDF/HDF5 library

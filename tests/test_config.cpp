@@ -22,6 +22,7 @@
 #include "rheology/Lubricant.hpp"
 #include "support/SteelBall.hpp"
 #include "support/TempDir.hpp"
+#include "support/TestPaths.hpp"
 #include "support/TextFiles.hpp"
 
 namespace ehlsim {
@@ -29,6 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
 
@@ -590,7 +592,7 @@ TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
   EXPECT_EQ(set_error(with_alpha_bar),
             "case.alpha_bar = 3: cannot be given together with lubricant.alpha: the Roelands "
             "law's pressure-viscosity coefficient sets L and alpha_bar (give one of them) (--set)");
-  const fs::path example = fs::path(EHLSIM_SOURCE_DIR) / "examples" / "roelands-dh.toml";
+  const fs::path example = source_dir() / "examples" / "roelands-dh.toml";
   EXPECT_EQ(config_error(example, {"lubricant.z=0.6"}),
             "case.L = 10: cannot be given together with lubricant.z: the Roelands law's "
             "pressure-viscosity coefficient sets L and alpha_bar (give one of them) (" +
@@ -751,7 +753,7 @@ TEST(Physical, ErrorsNameTheKey) {
 }
 
 TEST(Examples, AllExamplesLoad) {
-  const fs::path examples = fs::path(EHLSIM_SOURCE_DIR) / "examples";
+  const fs::path examples = source_dir() / "examples";
   // default.toml: the built-in defaults plus the paper's snapshot times.
   const ImpactConfig d = load_config(examples / "default.toml", {});
   EXPECT_EQ(effective_parameters_json(d),

@@ -57,6 +57,7 @@
 #include "support/CheckpointDamage.hpp"
 #include "support/SteelBall.hpp"
 #include "support/TempDir.hpp"
+#include "support/TestPaths.hpp"
 #include "support/TextFiles.hpp"
 
 namespace ehlsim {
@@ -65,6 +66,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using ehlsim::testing::read_file;
+using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
 
@@ -804,8 +806,8 @@ TEST(DamagedFiles, OnlyNetcdf4IsRead) {
   int ncid = -1;
   ASSERT_EQ(nc_create(classic.c_str(), NC_CLOBBER, &ncid), NC_NOERR);
   ASSERT_EQ(nc_close(ncid), NC_NOERR);
-  const fs::path oom = fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-regressions" / "checkpoint" /
-                       "classic-header-asks-2.7GB.nc";
+  const fs::path oom =
+      source_dir() / "tests" / "fuzz-regressions" / "checkpoint" / "classic-header-asks-2.7GB.nc";
   for (const fs::path& path : {classic, oom, write_file(dir / "empty.nc", "")}) {
     for (const std::string& message : {checkpoint_error(path), fields_error(path)}) {
       const std::string expected = fmt::format("'{}': not a NetCDF-4 file", path.string());
@@ -932,7 +934,7 @@ TEST(DamagedFiles, FieldsCoordinateAndShapes) {
 
 TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
   // Every input a fuzz target crashed on, kept in tests/fuzz-regressions/.
-  const fs::path root = fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-regressions";
+  const fs::path root = source_dir() / "tests" / "fuzz-regressions";
   int files = 0;
   for (const auto& [target, read] :
        std::vector<std::pair<std::string, std::string (*)(const fs::path&)>>{
@@ -952,7 +954,7 @@ TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
 // ---------------------------------------------------------------------------
 
 fs::path library_crash(const std::string& name) {
-  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+  return source_dir() / "tests" / "fuzz-library-crashes" / name;
 }
 
 std::string untrusted_checkpoint_error(const fs::path& path) {
@@ -1090,7 +1092,7 @@ TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
 
 TEST(IsolatedRead, OrdinaryDamageGivesTheReadersOwnMessage) {
   TempDir dir;
-  const fs::path root(EHLSIM_SOURCE_DIR);
+  const fs::path root = source_dir();
   std::vector<fs::path> checkpoints = {dir / "missing.nc", dir.path(),
                                        library_crash("checkpoint-hdf5-H5HG_read-segv.nc")};
   std::vector<fs::path> fields = {dir / "missing.nc", dir.path()};

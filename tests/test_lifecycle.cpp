@@ -41,15 +41,19 @@
 #include "support/MinimalRun.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
+#include "support/TestPaths.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
 using ehlsim::testing::ehlsim;
+using ehlsim::testing::ehlsim_binary;
+using ehlsim::testing::eio_shim;
 using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
+using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
 
@@ -82,10 +86,10 @@ struct Child {
 /// Environment variables set for a child: name, value.
 using Environment = std::vector<std::pair<std::string, std::string>>;
 
-/// EHLSIM_BINARY and `args` as execv takes them.
+/// The ehlsim binary and `args` as execv takes them.
 class CommandLine {
  public:
-  explicit CommandLine(const std::vector<std::string>& args) : strings_{EHLSIM_BINARY} {
+  explicit CommandLine(const std::vector<std::string>& args) : strings_{ehlsim_binary()} {
     strings_.insert(strings_.end(), args.begin(), args.end());
     for (std::string& s : strings_) pointers_.push_back(s.data());
     pointers_.push_back(nullptr);
@@ -114,7 +118,7 @@ Child start(const std::vector<std::string>& args, const fs::path& capture,
     dup2(err, STDERR_FILENO);
     if (!stop_at.empty()) setenv("EHLSIM_TEST_STOP_AT", stop_at.c_str(), 1);
     for (const auto& [name, value] : environment) setenv(name.c_str(), value.c_str(), 1);
-    execv(EHLSIM_BINARY, command.argv());
+    execv(command.argv()[0], command.argv());
     _exit(127);
   }
   return c;
@@ -213,7 +217,7 @@ TEST(Lifecycle, ClosedStandardStreamsLeaveTheOutputsClean) {
   TempDir work;
   const fs::path run = work / "run";
   const auto closed = [](const std::string& args) {
-    const std::string command = quote(EHLSIM_BINARY) + " impact " + args + " <&- >&- 2>&-";
+    const std::string command = quote(ehlsim_binary()) + " impact " + args + " <&- >&- 2>&-";
     const int status = std::system(command.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   };
@@ -358,7 +362,7 @@ std::vector<std::string> contents(const fs::path& dir) {
 Result with_file_size_limit(int kib, const std::string& args) {
   const TempDir capture("limit");
   const std::string command = "ulimit -f " + std::to_string(kib) + "; exec " +
-                              quote(EHLSIM_BINARY) + " " + args + " > " +
+                              quote(ehlsim_binary()) + " " + args + " > " +
                               quote((capture / "out").string()) + " 2> " +
                               quote((capture / "err").string()) + " < /dev/null";
   const int status = std::system(("sh -c " + quote(command)).c_str());
@@ -678,7 +682,7 @@ Result with_injected_eio(const fs::path& run, const std::string& options, const 
       "verify_asan_link_order=0";
   const TempDir capture("eio");
   const Child c = start(args, capture / "impact", "",
-                        {{"LD_PRELOAD", EHLSIM_EIO_SHIM},
+                        {{"LD_PRELOAD", eio_shim()},
                          {"EHLSIM_TEST_EIO_PATH", eio.file},
                          {"EHLSIM_TEST_EIO_AFTER", std::to_string(eio.after)},
                          {"EHLSIM_TEST_EIO_FSYNC", eio.on_fsync ? "1" : "0"},
@@ -817,6 +821,7 @@ TEST(Lifecycle, SigchldIgnoredByTheLauncherDoesNotLoseTheChildren) {
   TempDir work;
   const fs::path out = work / "study";
   const fs::path err = work / "stderr";
+  const std::string binary = ehlsim_binary();
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -827,8 +832,8 @@ TEST(Lifecycle, SigchldIgnoredByTheLauncherDoesNotLoseTheChildren) {
     dup2(null, STDIN_FILENO);
     dup2(null, STDOUT_FILENO);
     dup2(error, STDERR_FILENO);
-    execl(EHLSIM_BINARY, EHLSIM_BINARY, "study", "--grid", "33", "--no-plots", "--out", out.c_str(),
-          static_cast<char*>(nullptr));
+    execl(binary.c_str(), binary.c_str(), "study", "--grid", "33", "--no-plots", "--out",
+          out.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }
   int status = 0;
@@ -896,7 +901,7 @@ TEST(Lifecycle, TheResumeCommandOfAConfigNamedLikeAnOptionWorks) {
   const std::size_t at = r.err.find(with);
   ASSERT_NE(at, std::string::npos) << r.err;
   const std::string command = r.err.substr(at + with.size(), r.err.find('\n') - at - with.size());
-  EXPECT_EQ(command, std::string(EHLSIM_BINARY) +
+  EXPECT_EQ(command, ehlsim_binary() +
                          " impact ./-c.toml --set output.checkpoint_every=2 --set "
                          "time.max_steps=3 --out run --restart run.checkpoint.nc --quiet");
   // As printed, with the cap raised: it goes on from step 2 to the new cap.
@@ -1065,7 +1070,7 @@ TEST(Lifecycle, SigintCheckpointsAndTheResumedRunHasTheSameBits) {
   std::smatch match;
   ASSERT_TRUE(std::regex_match(line, match, message)) << line;
   const fs::path kept = work / "run.checkpoint.nc";
-  EXPECT_EQ(match[2].str(), std::string(EHLSIM_BINARY) +
+  EXPECT_EQ(match[2].str(), ehlsim_binary() +
                                 " impact --set grid.points=65 --set time.dT=0.01 --out " +
                                 run.string() + " --restart " + kept.string());
   EXPECT_EQ(ehlsim::read_checkpoint(kept).state.step, std::stoi(match[1].str()));
@@ -1280,7 +1285,7 @@ int exit_code_with_stdout_unread(const std::vector<std::string>& args, const fs:
     dup2(ends[1], STDOUT_FILENO);
     dup2(error, STDERR_FILENO);
     close(ends[0]);
-    execv(EHLSIM_BINARY, command.argv());
+    execv(command.argv()[0], command.argv());
     _exit(127);
   }
   close(ends[0]);  // the reader is gone before the first line
@@ -1715,7 +1720,7 @@ pid_t wait_for_reader(const Child& c) {
 }
 
 fs::path library_crash(const std::string& name) {
-  return fs::path(EHLSIM_SOURCE_DIR) / "tests" / "fuzz-library-crashes" / name;
+  return source_dir() / "tests" / "fuzz-library-crashes" / name;
 }
 
 /// HDF5 loops for ever on these files, and before, SIGTERM and SIGINT only set

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "support/TempDir.hpp"
+#include "support/TestPaths.hpp"
 #include "support/TextFiles.hpp"
 
 namespace ehlsim::testing {
@@ -31,7 +32,7 @@ inline Result ehlsim(const std::string& args, const std::string& launcher = "") 
   const TempDir capture("capture");
   const std::filesystem::path out = capture / "stdout";
   const std::filesystem::path err = capture / "stderr";
-  const std::string command = launcher + quote(EHLSIM_BINARY) + " " + args + " > " +
+  const std::string command = launcher + quote(ehlsim_binary()) + " " + args + " > " +
                               quote(out.string()) + " 2> " + quote(err.string()) + " < /dev/null";
   const int status = std::system(command.c_str());
   Result r;
