@@ -629,7 +629,7 @@ TEST(Cli, FilesHdf5CrashesOnAreBadInputNotACrash) {
   // HDF5 1.10.8 segfaults in H5HG_read on these (docs/validation.md): before,
   // both commands died with exit 139; the child process that reads first dies now.
   TempDir dir;
-  const fs::path checkpoint = library_crash("checkpoint-v8-hdf5-H5HG_read-segv.nc");
+  const fs::path checkpoint = library_crash("checkpoint-v9-hdf5-H5HG_read-segv.nc");
   expect_library_crash(tiny_run(dir / "run", "--restart " + quote(checkpoint.string())),
                        "cannot read checkpoint '" + checkpoint.string() + "': ");
   EXPECT_FALSE(fs::exists(dir / "run"));

@@ -1599,6 +1599,37 @@ TEST(AttemptMemory, StartsWhereTheLastStepConvergedAndStepsBackAfterAStreak) {
   EXPECT_FALSE(memory.probing);
 }
 
+// A single step that needed halves leaves the next one whole; two in a row
+// make the next begin with the halvings both needed, and from there the
+// memory probes the longer interval as AttemptMemory probes the lighter attempt.
+TEST(SplitMemory, BeginsInHalvesOnlyAfterTwoStepsThatNeededThem) {
+  SplitMemory memory;
+  memory = remember_split(memory, 2);  // one step needed quarters
+  EXPECT_EQ(memory.begin.first, 0);
+  EXPECT_EQ(memory.last_needed, 2);
+  memory = remember_split(memory, 0);  // the next converged whole
+  EXPECT_EQ(memory.begin.first, 0);
+  memory = remember_split(memory, 2);
+  memory = remember_split(memory, 1);  // quarters, then halves: both needed halves
+  EXPECT_EQ(memory.begin.first, 1);
+  memory = remember_split(memory, kMaxSplitDepth + 2);  // a rescue beyond eighths
+  EXPECT_EQ(memory.begin.first, 1);                     // the step before needed halves
+  EXPECT_EQ(memory.last_needed, kMaxSplitDepth);
+  memory = remember_split(memory, kMaxSplitDepth);
+  EXPECT_EQ(memory.begin.first, kMaxSplitDepth);
+  for (int k = 1; k < kStepsBeforeLighterAttempt; ++k) {
+    memory = remember_split(memory, kMaxSplitDepth);
+    EXPECT_EQ(memory.begin.first, kMaxSplitDepth) << k;
+  }
+  memory = remember_split(memory, kMaxSplitDepth);
+  EXPECT_EQ(memory.begin.first, kMaxSplitDepth - 1);  // the probe of quarters
+  EXPECT_TRUE(memory.begin.probing);
+  memory = remember_split(memory, kMaxSplitDepth - 1);  // it converged in quarters
+  EXPECT_EQ(memory.begin.first, kMaxSplitDepth - 1);
+  EXPECT_FALSE(memory.begin.probing);
+  EXPECT_EQ(memory.begin.failed_probes, 0);
+}
+
 namespace {
 /// The steps solved in attempt `hard` until the memory probes the lighter one,
 /// from a memory that starts there.

@@ -429,8 +429,9 @@ TEST(Checkpoint, RoundTripIsExact) {
   TempDir dir;
   const nlohmann::json parameters = small_case_parameters();
   ImpactState s = plausible_state(parameters);
-  s.P_before[5] = 1e-300;        // every bit must survive
-  s.attempts = {2, 0, 2, true};  // a probe of attempt 2 after two failed ones
+  s.P_before[5] = 1e-300;            // every bit must survive
+  s.attempts = {2, 0, 2, true};      // a probe of attempt 2 after two failed ones
+  s.splits = {{1, 4, 1, false}, 2};  // in halves, a fifth step before the next probe
   const fs::path path = dir / "checkpoint.nc";
   write_checkpoint(path, s, parameters);
   EXPECT_FALSE(fs::exists(path.string() + PartialFile::kSuffix));
@@ -456,6 +457,11 @@ TEST(Checkpoint, RoundTripIsExact) {
   EXPECT_EQ(r.attempts.streak, 0);
   EXPECT_EQ(r.attempts.failed_probes, 2);
   EXPECT_TRUE(r.attempts.probing);
+  EXPECT_EQ(r.splits.begin.first, 1);
+  EXPECT_EQ(r.splits.begin.streak, 4);
+  EXPECT_EQ(r.splits.begin.failed_probes, 1);
+  EXPECT_FALSE(r.splits.begin.probing);
+  EXPECT_EQ(r.splits.last_needed, 2);
   const std::array<std::pair<const Field*, const Field*>, 6> fields = {
       {{&r.P, &s.P},
        {&r.P_before, &s.P_before},
@@ -534,7 +540,7 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
   ehlsim::testing::rewrite_attribute(path, "format_version", 2);
   EXPECT_EQ(checkpoint_error(path),
             prefix +
-                "field 'format_version' is 2; this ehlsim reads version 8 only (checkpoints "
+                "field 'format_version' is 2; this ehlsim reads version 9 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
 }
 
@@ -588,6 +594,18 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
             }),
             prefix +
                 "'attempts_probing' = 1 with attempts_first = 3 and attempts_streak = 0: a "
+                "probe needs them below 3 and at 0");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.splits.begin.first = kMaxSplitDepth + 1; }),
+            prefix + "'splits_first' = 4: must be in [0, 3]");
+  EXPECT_EQ(error_of([](ImpactState& s) { s.splits.last_needed = -1; }),
+            prefix + "'splits_last_needed' = -1: must be in [0, 3]");
+  EXPECT_EQ(error_of([](ImpactState& s) {
+              s.splits.begin.first = 1;
+              s.splits.begin.streak = 1;
+              s.splits.begin.probing = true;
+            }),
+            prefix +
+                "'splits_probing' = 1 with splits_first = 1 and splits_streak = 1: a "
                 "probe needs them below 3 and at 0");
   EXPECT_EQ(error_of([](ImpactState& s) {
               s.step = 0;
@@ -1065,7 +1083,7 @@ TEST(IsolatedRead, ASignalWhileWaitingKillsTheChildAndIsReported) {
 
 TEST(IsolatedRead, HdfCrashesAndLoopsOnDamagedFilesBecomeErrorsNamingTheFile) {
   // The size of a global-heap object of a DIMENSION_LIST set to 1.7e18: H5HG_read's memcpy.
-  const fs::path checkpoint = library_crash("checkpoint-v8-hdf5-H5HG_read-segv.nc");
+  const fs::path checkpoint = library_crash("checkpoint-v9-hdf5-H5HG_read-segv.nc");
   expect_library_crash(untrusted_checkpoint_error(checkpoint),
                        "cannot read checkpoint '" + checkpoint.string() + "': ");
   const fs::path fields = library_crash("fields-hdf5-H5HG_read-segv.nc");

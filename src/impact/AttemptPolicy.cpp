@@ -46,6 +46,16 @@ AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
   return {memory.first - 1, 0, memory.failed_probes, true};
 }
 
+SplitMemory remember_split(SplitMemory memory, int needed) {
+  needed = std::min(needed, kMaxSplitDepth);
+  // What this step and the one before both needed, and never less than
+  // this step began with.
+  const int both = std::min(needed, std::max(memory.last_needed, memory.begin.first));
+  memory.begin = remember_attempt(memory.begin, both);
+  memory.last_needed = needed;
+  return memory;
+}
+
 AttemptVerdict judge_attempt(std::span<const double> history, double tolerance, int max_cycles,
                              bool force_settled) {
   const double now = history.back();

@@ -63,6 +63,33 @@ inline constexpr int kStepsBeforeLighterAttempt = 3;
 /// probes in a row, a probe every 24 steps.
 inline constexpr int kMaxProbeBackoff = 3;
 
+/// A step none of whose attempts converges is solved as two halves, and each
+/// half likewise, down to dT / 2^kMaxSplitDepth (impact/ImpactProblem.cpp).
+/// Eighths, not quarters: M = 100, L = 20 on 257^2 kept a quarter at 5.1e-5
+/// (T = 4.1016) and converges every step with eighths; runs whose steps all
+/// converge by quarters keep their bits (the 129^2 case map, M = 100, L = 20
+/// on 513^2).
+inline constexpr int kMaxSplitDepth = 3;
+
+/// Where a step begins in halves: when the two steps before it both needed
+/// halves, it begins with as many halvings as both needed, and after a
+/// streak of steps solved so tries the longer interval again (the probes of
+/// AttemptMemory).  In the pocket collapse of M = 100, L = 20 on 1025^2 every
+/// step from T = 4.05 on failed whole and in halves, each after up to four
+/// attempts of 20-40 cycles, before its quarters or eighths converged:
+/// 230-560 cycles per step, 80-90 % of them in the intervals that failed
+/// (docs/performance.md, "Steps that begin in halves").  A single step that
+/// needs halves (M = 1000, L = 20 on 65^2, where the film first carries the
+/// load) leaves the next one whole, as do the case maps' few.
+struct SplitMemory {
+  AttemptMemory begin;  ///< `first`: the halvings the next step begins with
+  int last_needed = 0;  ///< the halvings the last step needed, at most kMaxSplitDepth
+};
+
+/// The memory after a step that needed `needed` halvings below dT (at least
+/// the ones it began with).
+[[nodiscard]] SplitMemory remember_split(SplitMemory memory, int needed);
+
 /// The steps to solve in attempt `first` before the next probe.
 [[nodiscard]] constexpr int steps_before_probe(int failed_probes) {
   return kStepsBeforeLighterAttempt << failed_probes;

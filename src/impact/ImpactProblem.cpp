@@ -47,12 +47,8 @@ constexpr double kDivergenceFactor = 1e3;
 /// Each retry after the first halves the damping factor once more.
 constexpr double kFurtherRetryDamping = 0.5;
 /// A step none of whose attempts converges is solved as two halves, and each
-/// half likewise, down to dT / 2^kMaxSplitDepth.  Eighths, not quarters: M =
-/// 100, L = 20 on 257^2 kept a quarter at 5.1e-5 (T = 4.1016) and converges
-/// every step with eighths; runs whose steps all converge by quarters keep
-/// their bits (the 129^2 case map, M = 100, L = 20 on 513^2).
-constexpr int kMaxSplitDepth = 3;
-/// ... and an eighth whose best iterate would end the run (every attempt
+/// half likewise, down to dT / 2^kMaxSplitDepth (impact/AttemptPolicy.hpp),
+/// and an eighth whose best iterate would end the run (every attempt
 /// diverged, or it is above the kept-residual bound) further, down to
 /// dT / 2^kRescueSplitDepth: M = 100, L = 20 on 513^2 ended at T = 4.078 in
 /// the collapse with quarters at 1.4e-3, and lifts off with eighths and
@@ -186,6 +182,7 @@ struct ImpactProblem::Impl {
     int levels_done = 0;
     double impulse = 0.0, edge_impulse = 0.0;  ///< summary's, which accepted intervals add to
     AttemptMemory attempt_memory;              ///< restored only when the step is abandoned
+    SplitMemory split_memory;                  ///< the same
   };
   /// Advances `run` by one time step dT (step `step`): as one implicit step,
   /// or in halves when none of its attempts converges.
@@ -200,6 +197,11 @@ struct ImpactProblem::Impl {
     double delta = 0.0;
     StepSolve solved;
   };
+  /// Advances `run` over [T, T + dt] as two halves, from `start`, the state
+  /// of `run` and of the solver now; `whole`: the interval solved whole, kept
+  /// should the halves end further above the tolerance.
+  void advance_in_halves(int step, RunProgress& run, double dt, int depth,
+                         const std::optional<WholeInterval>& whole, const IntervalStart& start);
   struct StepTally;
   void keep_whole_interval(const WholeInterval& whole, const IntervalStart& start,
                            const StepTally& before, RunProgress& run, double dt);
@@ -303,6 +305,7 @@ struct ImpactProblem::Impl {
   /// What the current step cost and how it ended, over its halves if it was split.
   struct StepTally {
     int cycles = 0, attempts = 0, splits = 0;
+    int depth = 0;  ///< the most halvings below dT of an interval accepted
     double residual = 0.0;
     bool retried = false, unconverged = false;
   };
@@ -327,6 +330,7 @@ struct ImpactProblem::Impl {
   /// steps) are kept in it by advance_step.
   RunSummary summary;
   AttemptMemory attempt_memory;  ///< where the next step's attempts begin
+  SplitMemory split_memory;      ///< in how many halvings the next step begins
 };
 
 ImpactProblem::Impl::Impl(const ImpactConfig& config)
@@ -619,8 +623,10 @@ void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
     // The state after the step before, as its checkpoint would have it.
     restore_interval_start(start, run);
     attempt_memory = start.attempt_memory;
+    split_memory = start.split_memory;
     throw;
   }
+  split_memory = remember_split(split_memory, tally.depth);
   if (tally.splits > 0) {
     // The next step sees the levels T and T + dT, as after an unsplit step.
     rhoH_old = start.rhoH_now;
@@ -639,6 +645,12 @@ void ImpactProblem::Impl::advance_step(int step, RunProgress& run) {
 
 void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt, int depth,
                                            const IntervalStart& start) {
+  if (depth < split_memory.begin.first) {
+    // The steps before needed intervals this short: the whole would fail as
+    // theirs did (SplitMemory).
+    advance_in_halves(step, run, dt, depth, std::nullopt, start);
+    return;
+  }
   std::optional<StepSolve> solved;
   try {
     solved = solve_time_step(step, run, dt);
@@ -654,23 +666,33 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
     std::optional<WholeInterval> whole;
     if (solved) whole = WholeInterval{solver->solution(0), hierarchy.finest().delta(), *solved};
     restore_interval_start(start, run);
-    const StepTally before = tally;
-    ++tally.splits;
     tally.retried = true;
-    // The halves are judged on their own: an earlier sibling interval of the
-    // same step may have been kept above the tolerance already.
-    tally.residual = 0.0;
-    tally.unconverged = false;
-    advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
-    advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
-    const bool halves_worse = whole && tally.unconverged && tally.residual > whole->solved.residual;
-    tally.residual = std::max(tally.residual, before.residual);
-    tally.unconverged = tally.unconverged || before.unconverged;
-    if (halves_worse) keep_whole_interval(*whole, start, before, run, dt);
+    advance_in_halves(step, run, dt, depth, whole, start);
     return;
   }
   if (!solved->converged) tally.unconverged = tally.retried = true;
   accept_interval(run, dt, *solved);
+  tally.depth = std::max(tally.depth, depth);
+}
+
+void ImpactProblem::Impl::advance_in_halves(int step, RunProgress& run, double dt, int depth,
+                                            const std::optional<WholeInterval>& whole,
+                                            const IntervalStart& start) {
+  const StepTally before = tally;
+  ++tally.splits;
+  // The halves are judged on their own: an earlier sibling interval of the
+  // same step may have been kept above the tolerance already.
+  tally.residual = 0.0;
+  tally.unconverged = false;
+  advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
+  advance_interval(step, run, 0.5 * dt, depth + 1, interval_start(run));
+  const bool halves_worse = whole && tally.unconverged && tally.residual > whole->solved.residual;
+  tally.residual = std::max(tally.residual, before.residual);
+  tally.unconverged = tally.unconverged || before.unconverged;
+  if (halves_worse) {
+    keep_whole_interval(*whole, start, before, run, dt);
+    tally.depth = std::max(tally.depth, depth);
+  }
 }
 
 void ImpactProblem::Impl::keep_whole_interval(const WholeInterval& whole,
@@ -710,7 +732,8 @@ ImpactProblem::Impl::IntervalStart ImpactProblem::Impl::interval_start(
           levels_done,
           summary.impulse,
           summary.edge_impulse,
-          attempt_memory};
+          attempt_memory,
+          split_memory};
 }
 
 void ImpactProblem::Impl::restore_interval_start(const IntervalStart& start, RunProgress& run) {
@@ -819,6 +842,7 @@ void ImpactProblem::Impl::start_at_delta0(RunProgress& run) {
   spacing_before = spacing_before2 = 0.0;
   levels_done = 0;
   attempt_memory = {};
+  split_memory = {};
   run.bounds = run_bounds(cfg, dT, summary.initial_elastic_energy);
 }
 
@@ -833,6 +857,7 @@ void ImpactProblem::Impl::start_from_restart(RunProgress& run) {
   run.had_pressure = s.had_pressure;
   summary = s.summary;
   attempt_memory = s.attempts;
+  split_memory = s.splits;
   solver->solution() = fold(s.P, grid);
   P_before = fold(s.P_before, grid);
   P_before2 = fold(s.P_before2, grid);
@@ -919,6 +944,7 @@ ImpactState ImpactProblem::Impl::state_after(int step, const RunProgress& run) c
                      run.had_pressure,
                      summary,
                      attempt_memory,
+                     split_memory,
                      unfold(solver->solution(), grid),
                      unfold(P_before, grid),
                      unfold(P_before2, grid),

@@ -17,6 +17,7 @@ struct ImpactState {
   bool had_pressure = false;  ///< some step so far carried pressure (lift-off needs it)
   RunSummary summary;         ///< extremes, impulse and solver counters up to `step`
   AttemptMemory attempts;     ///< where the next step's attempts begin
+  SplitMemory splits;         ///< in how many halvings the next step begins
   Field P;                    ///< pressure at the last time level (finest grid)
   Field P_before;             ///< pressure at the level before (the extrapolated start)
   Field P_before2;            ///< ... and at the one before that (the quadratic start)

@@ -34,7 +34,9 @@ constexpr const char* kFormatName = "ehlsim checkpoint";
 /// 6: P_before2 (the quadratic start, impact/PressurePredictor.hpp).
 /// 7: P_before3 (the cubic start).
 /// 8: summary_edge_impulse (the domain's warning, impact/RunGuards.hpp).
-constexpr int kFormatVersion = 8;
+/// 9: splits_first, splits_streak, splits_failed_probes, splits_probing and
+///    splits_last_needed (impact/AttemptPolicy.hpp, SplitMemory).
+constexpr int kFormatVersion = 9;
 constexpr const char* kChecksumAttribute = "checksum_crc32";
 /// |T - step dT| allowed, relative to step dT: T is a running sum of dT, so
 /// it differs from step dT by rounding only (about step x 1e-16).
@@ -72,6 +74,10 @@ void for_each_integer(State& s, Visit&& visit) {
   visit("attempts_first", s.attempts.first);
   visit("attempts_streak", s.attempts.streak);
   visit("attempts_failed_probes", s.attempts.failed_probes);
+  visit("splits_first", s.splits.begin.first);
+  visit("splits_streak", s.splits.begin.streak);
+  visit("splits_failed_probes", s.splits.begin.failed_probes);
+  visit("splits_last_needed", s.splits.last_needed);
 }
 
 /// The flags of the state, stored as integer attributes 0 or 1.
@@ -79,6 +85,7 @@ template <class State, class Visit>
 void for_each_flag(State& s, Visit&& visit) {
   visit("had_pressure", s.had_pressure);
   visit("attempts_probing", s.attempts.probing);
+  visit("splits_probing", s.splits.begin.probing);
 }
 
 template <class State, class Visit>
@@ -273,6 +280,25 @@ void check_fields_plausible(const CheckpointReader& in, const ImpactState& s) {
   });
 }
 
+/// An AttemptMemory stored as PREFIX_first, PREFIX_streak, ... whose `first`
+/// is at most `most_first`.
+void check_memory_plausible(const CheckpointReader& in, std::string_view prefix,
+                            const AttemptMemory& m, int most_first) {
+  const auto field = [&](const char* name) { return fmt::format("{}_{}", prefix, name); };
+  if (m.first < 0 || m.first > most_first)
+    in.fail(field("first"), fmt::format("= {}: must be in [0, {}]", m.first, most_first));
+  if (m.failed_probes < 0 || m.failed_probes > kMaxProbeBackoff)
+    in.fail(field("failed_probes"),
+            fmt::format("= {}: must be in [0, {}]", m.failed_probes, kMaxProbeBackoff));
+  if (m.probing && (m.first >= most_first || m.streak != 0))
+    in.fail(field("probing"),
+            fmt::format("= 1 with {} = {} and {} = {}: a probe needs them below {} and at 0",
+                        field("first"), m.first, field("streak"), m.streak, most_first));
+  const int most_streak = steps_before_probe(m.failed_probes) - 1;
+  if (m.streak < 0 || m.streak > most_streak)
+    in.fail(field("streak"), fmt::format("= {}: must be in [0, {}]", m.streak, most_streak));
+}
+
 void check_plausible(const CheckpointReader& in, const ImpactState& s, const CheckpointGrid& g) {
   for_each_scalar(s, [&](const char* name, double value) {
     if (!std::isfinite(value) && !(std::isnan(value) && may_be_nan(name)))
@@ -302,20 +328,11 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
     if (count < 0 || count > s.step)
       in.fail(name, fmt::format("= {}: must be in [0, step = {}]", count, s.step));
   }
-  if (s.attempts.first < 0 || s.attempts.first > kMaxRetries)
-    in.fail("attempts_first",
-            fmt::format("= {}: must be in [0, {}]", s.attempts.first, kMaxRetries));
-  if (s.attempts.failed_probes < 0 || s.attempts.failed_probes > kMaxProbeBackoff)
-    in.fail("attempts_failed_probes",
-            fmt::format("= {}: must be in [0, {}]", s.attempts.failed_probes, kMaxProbeBackoff));
-  if (s.attempts.probing && (s.attempts.first >= kMaxRetries || s.attempts.streak != 0))
-    in.fail("attempts_probing", fmt::format("= 1 with attempts_first = {} and attempts_streak = "
-                                            "{}: a probe needs them below {} and at 0",
-                                            s.attempts.first, s.attempts.streak, kMaxRetries));
-  const int most_streak = steps_before_probe(s.attempts.failed_probes) - 1;
-  if (s.attempts.streak < 0 || s.attempts.streak > most_streak)
-    in.fail("attempts_streak",
-            fmt::format("= {}: must be in [0, {}]", s.attempts.streak, most_streak));
+  check_memory_plausible(in, "attempts", s.attempts, kMaxRetries);
+  check_memory_plausible(in, "splits", s.splits.begin, kMaxSplitDepth);
+  if (s.splits.last_needed < 0 || s.splits.last_needed > kMaxSplitDepth)
+    in.fail("splits_last_needed",
+            fmt::format("= {}: must be in [0, {}]", s.splits.last_needed, kMaxSplitDepth));
   check_fields_plausible(in, s);
 }
 
