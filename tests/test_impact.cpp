@@ -1612,20 +1612,21 @@ TEST(SplitMemory, BeginsInHalvesOnlyAfterTwoStepsThatNeededThem) {
   memory = remember_split(memory, 2);
   memory = remember_split(memory, 1);  // quarters, then halves: both needed halves
   EXPECT_EQ(memory.begin.first, 1);
-  memory = remember_split(memory, kMaxSplitDepth + 2);  // a rescue beyond eighths
-  EXPECT_EQ(memory.begin.first, 1);                     // the step before needed halves
-  EXPECT_EQ(memory.last_needed, kMaxSplitDepth);
-  memory = remember_split(memory, kMaxSplitDepth);
-  EXPECT_EQ(memory.begin.first, kMaxSplitDepth);
+  memory = remember_split(memory, kRescueSplitDepth + 1);  // beyond the deepest rescue
+  EXPECT_EQ(memory.begin.first, 1);                        // the step before needed halves
+  EXPECT_EQ(memory.last_needed, kRescueSplitDepth);
+  const int deep = kRescueSplitDepth;  // sixteenths where eighths fail (1025^2, L = 20)
+  memory = remember_split(memory, deep);
+  EXPECT_EQ(memory.begin.first, deep);
   for (int k = 1; k < kStepsBeforeLighterAttempt; ++k) {
-    memory = remember_split(memory, kMaxSplitDepth);
-    EXPECT_EQ(memory.begin.first, kMaxSplitDepth) << k;
+    memory = remember_split(memory, deep);
+    EXPECT_EQ(memory.begin.first, deep) << k;
   }
-  memory = remember_split(memory, kMaxSplitDepth);
-  EXPECT_EQ(memory.begin.first, kMaxSplitDepth - 1);  // the probe of quarters
+  memory = remember_split(memory, deep);
+  EXPECT_EQ(memory.begin.first, deep - 1);  // the probe of the longer interval
   EXPECT_TRUE(memory.begin.probing);
-  memory = remember_split(memory, kMaxSplitDepth - 1);  // it converged in quarters
-  EXPECT_EQ(memory.begin.first, kMaxSplitDepth - 1);
+  memory = remember_split(memory, deep - 1);  // it converged
+  EXPECT_EQ(memory.begin.first, deep - 1);
   EXPECT_FALSE(memory.begin.probing);
   EXPECT_EQ(memory.begin.failed_probes, 0);
 }

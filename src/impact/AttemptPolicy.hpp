@@ -70,6 +70,15 @@ inline constexpr int kMaxProbeBackoff = 3;
 /// converge by quarters keep their bits (the 129^2 case map, M = 100, L = 20
 /// on 513^2).
 inline constexpr int kMaxSplitDepth = 3;
+/// ... and an eighth whose best iterate would end the run (every attempt
+/// diverged, or it is above the kept-residual bound) further, down to
+/// dT / 2^kRescueSplitDepth: M = 100, L = 20 on 513^2 ended at T = 4.078 in
+/// the collapse with quarters at 1.4e-3, and lifts off with eighths and
+/// sixteenths.  L = 20 on 1025^2 ended at T = 4.0576 with sixteenths at
+/// 1.4e-3 (one and two threads alike) and goes on with thirty-seconds (to
+/// T = 4.066, at 505 cycles per step).  (Both measured when the halving of
+/// an interval within that bound stopped at quarters.)
+inline constexpr int kRescueSplitDepth = 5;
 
 /// Where a step begins in halves: when the two steps before it both needed
 /// halves, it begins with as many halvings as both needed, and after a
@@ -83,7 +92,7 @@ inline constexpr int kMaxSplitDepth = 3;
 /// load) leaves the next one whole, as do the case maps' few.
 struct SplitMemory {
   AttemptMemory begin;  ///< `first`: the halvings the next step begins with
-  int last_needed = 0;  ///< the halvings the last step needed, at most kMaxSplitDepth
+  int last_needed = 0;  ///< the halvings the last step needed, at most kRescueSplitDepth
 };
 
 /// The memory after a step that needed `needed` halvings below dT (at least

@@ -46,17 +46,6 @@ namespace {
 constexpr double kDivergenceFactor = 1e3;
 /// Each retry after the first halves the damping factor once more.
 constexpr double kFurtherRetryDamping = 0.5;
-/// A step none of whose attempts converges is solved as two halves, and each
-/// half likewise, down to dT / 2^kMaxSplitDepth (impact/AttemptPolicy.hpp),
-/// and an eighth whose best iterate would end the run (every attempt
-/// diverged, or it is above the kept-residual bound) further, down to
-/// dT / 2^kRescueSplitDepth: M = 100, L = 20 on 513^2 ended at T = 4.078 in
-/// the collapse with quarters at 1.4e-3, and lifts off with eighths and
-/// sixteenths.  L = 20 on 1025^2 ended at T = 4.0576 with sixteenths at
-/// 1.4e-3 (one and two threads alike) and goes on with thirty-seconds (to
-/// T = 4.066, at 505 cycles per step).  (Both measured when the halving of
-/// an interval within that bound stopped at quarters.)
-constexpr int kRescueSplitDepth = 5;
 /// The attempt from which on a step brings the deformation up to date before
 /// each colour of a sweep (once per sweep before it: section 7 of
 /// docs/model.md): the second retry on.  The last retry only cost less on the
