@@ -1612,10 +1612,10 @@ TEST(SplitMemory, BeginsInHalvesOnlyAfterTwoStepsThatNeededThem) {
   memory = remember_split(memory, 2);
   memory = remember_split(memory, 1);  // quarters, then halves: both needed halves
   EXPECT_EQ(memory.begin.first, 1);
-  memory = remember_split(memory, kRescueSplitDepth + 1);  // beyond the deepest rescue
-  EXPECT_EQ(memory.begin.first, 1);                        // the step before needed halves
-  EXPECT_EQ(memory.last_needed, kRescueSplitDepth);
-  const int deep = kRescueSplitDepth;  // sixteenths where eighths fail (1025^2, L = 20)
+  memory = remember_split(memory, kMaxSplitDepth + 1);  // beyond the deepest rescue
+  EXPECT_EQ(memory.begin.first, 1);                     // the step before needed halves
+  EXPECT_EQ(memory.last_needed, kMaxSplitDepth);
+  const int deep = kMaxSplitDepth;  // sixteenths where eighths fail (1025^2, L = 20)
   memory = remember_split(memory, deep);
   EXPECT_EQ(memory.begin.first, deep);
   for (int k = 1; k < kStepsBeforeLighterAttempt; ++k) {

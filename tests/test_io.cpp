@@ -595,7 +595,7 @@ TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {
             prefix +
                 "'attempts_probing' = 1 with attempts_first = 3 and attempts_streak = 0: a "
                 "probe needs them below 3 and at 0");
-  EXPECT_EQ(error_of([](ImpactState& s) { s.splits.begin.first = kRescueSplitDepth + 1; }),
+  EXPECT_EQ(error_of([](ImpactState& s) { s.splits.begin.first = kMaxSplitDepth + 1; }),
             prefix + "'splits_first' = 6: must be in [0, 5]");
   EXPECT_EQ(error_of([](ImpactState& s) { s.splits.last_needed = -1; }),
             prefix + "'splits_last_needed' = -1: must be in [0, 5]");

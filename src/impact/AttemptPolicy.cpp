@@ -47,7 +47,7 @@ AttemptMemory remember_attempt(AttemptMemory memory, int converged_in) {
 }
 
 SplitMemory remember_split(SplitMemory memory, int needed) {
-  needed = std::min(needed, kRescueSplitDepth);
+  needed = std::min(needed, kMaxSplitDepth);
   // What this step and the one before both needed, and never less than
   // this step began with.
   const int both = std::min(needed, std::max(memory.last_needed, memory.begin.first));

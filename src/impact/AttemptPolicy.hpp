@@ -64,21 +64,17 @@ inline constexpr int kStepsBeforeLighterAttempt = 3;
 inline constexpr int kMaxProbeBackoff = 3;
 
 /// A step none of whose attempts converges is solved as two halves, and each
-/// half likewise, down to dT / 2^kMaxSplitDepth (impact/ImpactProblem.cpp).
-/// Eighths, not quarters: M = 100, L = 20 on 257^2 kept a quarter at 5.1e-5
-/// (T = 4.1016) and converges every step with eighths; runs whose steps all
-/// converge by quarters keep their bits (the 129^2 case map, M = 100, L = 20
-/// on 513^2).
-inline constexpr int kMaxSplitDepth = 3;
-/// ... and an eighth whose best iterate would end the run (every attempt
-/// diverged, or it is above the kept-residual bound) further, down to
-/// dT / 2^kRescueSplitDepth: M = 100, L = 20 on 513^2 ended at T = 4.078 in
-/// the collapse with quarters at 1.4e-3, and lifts off with eighths and
-/// sixteenths.  L = 20 on 1025^2 ended at T = 4.0576 with sixteenths at
-/// 1.4e-3 (one and two threads alike) and goes on with thirty-seconds (to
-/// T = 4.066, at 505 cycles per step).  (Both measured when the halving of
-/// an interval within that bound stopped at quarters.)
-inline constexpr int kRescueSplitDepth = 5;
+/// half likewise, down to dT / 2^kMaxSplitDepth (impact/ImpactProblem.cpp);
+/// only then is the best iterate of an interval kept unconverged.  M = 100,
+/// L = 20 on 257^2 kept a quarter at 5.1e-5 (T = 4.1016) and converges every
+/// step with eighths; on 513^2 it ended at T = 4.078 with quarters at 1.4e-3,
+/// and lifts off with eighths and sixteenths; on 1025^2 it ended at T = 4.0576
+/// with sixteenths at 1.4e-3, goes on with thirty-seconds, and kept its last
+/// two steps at 6.7e-4 and 3.8e-4 while halving stopped at eighths for an
+/// interval within the kept-residual bound (docs/performance.md, "Steps that
+/// begin in halves").  Runs whose steps all converge by quarters keep their
+/// bits with any depth.
+inline constexpr int kMaxSplitDepth = 5;
 
 /// Where a step begins in halves: when the two steps before it both needed
 /// halves, it begins with as many halvings as both needed, and after a
@@ -92,7 +88,7 @@ inline constexpr int kRescueSplitDepth = 5;
 /// load) leaves the next one whole, as do the case maps' few.
 struct SplitMemory {
   AttemptMemory begin;  ///< `first`: the halvings the next step begins with
-  int last_needed = 0;  ///< the halvings the last step needed, at most kRescueSplitDepth
+  int last_needed = 0;  ///< the halvings the last step needed, at most kMaxSplitDepth
 };
 
 /// The memory after a step that needed `needed` halvings below dT (at least

@@ -644,12 +644,9 @@ void ImpactProblem::Impl::advance_interval(int step, RunProgress& run, double dt
   try {
     solved = solve_time_step(step, run, dt);
   } catch (const std::runtime_error&) {
-    if (depth == kRescueSplitDepth) throw;
+    if (depth == kMaxSplitDepth) throw;
   }
-  const bool would_end_run =
-      !solved || (!solved->converged && !(solved->residual <= run.bounds.max_residual));
-  const int deepest = would_end_run ? kRescueSplitDepth : kMaxSplitDepth;
-  if (!solved || (!solved->converged && depth < deepest)) {
+  if (!solved || (!solved->converged && depth < kMaxSplitDepth)) {
     // Half the time step halves the distance the pocket-collapse spike moves
     // in it (docs/model.md, section 8).
     std::optional<WholeInterval> whole;

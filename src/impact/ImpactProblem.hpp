@@ -29,10 +29,11 @@ class ImpactProblem {
   /// every step to `observer`.  Throws std::runtime_error when the iteration of
   /// a time step diverges, RunFailure (impact/RunGuards.hpp) when a step breaks
   /// a physics guard or the step cap; a step none of whose attempts converges
-  /// is solved in halves (down to dT / 4); one whose quarter steps still did not converge
-  /// keeps its best iterate, if that is at most 100 times above
-  /// solver.tolerance, and is counted in RunSummary::unconverged_steps; a
-  /// quarter above that is halved further, down to dT / 32.  Throws RunInterrupted
+  /// is solved in halves, down to dT / 32 (kMaxSplitDepth), and begins in
+  /// halves where the two steps before needed them (SplitMemory); an interval
+  /// of dT / 32 that still did not converge keeps its best iterate, if that
+  /// is at most 100 times above solver.tolerance, and is counted in
+  /// RunSummary::unconverged_steps.  Throws RunInterrupted
   /// when observer.stop_requested(): after a step, or after a cycle, which
   /// abandons the step under way (the run ends after the step before it).
   RunSummary run(ImpactObserver& observer);

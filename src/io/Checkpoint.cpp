@@ -329,10 +329,10 @@ void check_plausible(const CheckpointReader& in, const ImpactState& s, const Che
       in.fail(name, fmt::format("= {}: must be in [0, step = {}]", count, s.step));
   }
   check_memory_plausible(in, "attempts", s.attempts, kMaxRetries);
-  check_memory_plausible(in, "splits", s.splits.begin, kRescueSplitDepth);
-  if (s.splits.last_needed < 0 || s.splits.last_needed > kRescueSplitDepth)
+  check_memory_plausible(in, "splits", s.splits.begin, kMaxSplitDepth);
+  if (s.splits.last_needed < 0 || s.splits.last_needed > kMaxSplitDepth)
     in.fail("splits_last_needed",
-            fmt::format("= {}: must be in [0, {}]", s.splits.last_needed, kRescueSplitDepth));
+            fmt::format("= {}: must be in [0, {}]", s.splits.last_needed, kMaxSplitDepth));
   check_fields_plausible(in, s);
 }
 
