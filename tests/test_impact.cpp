@@ -1068,6 +1068,40 @@ TEST(ImpactRestart, ContinuesWithTheAttemptTheStepsBeforeNeeded) {
   EXPECT_EQ(resumed.summary.rebound_speed, full.summary.rebound_speed);
 }
 
+TEST(ImpactRestart, ContinuesInTheHalvesTheStepsBeforeNeeded) {
+  // With two cycles per attempt the steps of the 33^2 rebound from T = 2.6
+  // on fail whole and converge in halves or quarters, so steps begin in
+  // halves (SplitMemory).  A restart from there must begin as the
+  // uninterrupted run began: the memory is part of the state.
+  ImpactConfig cfg = moes_config(33);
+  cfg.max_cycles = 2;
+  std::vector<ImpactState> states;
+  const RunResult full = run_keeping_states(cfg, 1, states);
+  ASSERT_RAN(full);
+  EXPECT_EQ(full.summary.unconverged_steps, 0);
+  const auto halved = std::find_if(states.begin(), states.end(),
+                                   [](const ImpactState& s) { return s.splits.begin.first > 0; });
+  ASSERT_NE(halved, states.end()) << "no step began in halves";
+  const RunResult resumed = run_restarted(cfg, *halved);
+  ASSERT_EQ(resumed.records.size() + halved->step, full.records.size());
+  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
+    const StepRecord& a = full.records[halved->step + k];
+    const StepRecord& b = resumed.records[k];
+    ASSERT_EQ(a.attempts, b.attempts) << "step " << b.step;
+    ASSERT_EQ(a.cycles, b.cycles) << "step " << b.step;
+    ASSERT_EQ(a.Delta, b.Delta) << "step " << b.step;
+    ASSERT_EQ(a.residual, b.residual) << "step " << b.step;
+  }
+  EXPECT_EQ(resumed.summary.rebound_speed, full.summary.rebound_speed);
+
+  // Without the memory the resumed run tries its next step whole again.
+  ImpactState forgotten = *halved;
+  forgotten.splits = {};
+  const RunResult whole_first = run_restarted(cfg, forgotten);
+  ASSERT_FALSE(whole_first.records.empty());
+  EXPECT_GT(whole_first.records.front().attempts, full.records[halved->step].attempts);
+}
+
 TEST(ImpactHalvedSteps, AStepNoAttemptSolvesIsSolvedInHalvesOnTheSameTimeGrid) {
   // M = 1000, L = 20 on 65^2: the step to T = 0.8906, where the film first
   // carries the load (p_max 0.015 -> 0.12), converges in none of its four
