@@ -1044,6 +1044,22 @@ TEST(ImpactRestart, ContinuesExactlyWhereTheCheckpointWasTaken) {
   EXPECT_THROW(problem.restart_from(wrong), std::invalid_argument);
 }
 
+namespace {
+/// Expects the steps of `resumed`, a restart after step `from` of `full`, to
+/// repeat those of `full` to the bit: their attempts, cycles, Delta and residual.
+void expect_steps_repeated(const RunResult& full, const RunResult& resumed, int from) {
+  ASSERT_EQ(resumed.records.size() + from, full.records.size());
+  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
+    const StepRecord& a = full.records[from + k];
+    const StepRecord& b = resumed.records[k];
+    ASSERT_EQ(a.attempts, b.attempts) << "step " << b.step;
+    ASSERT_EQ(a.cycles, b.cycles) << "step " << b.step;
+    ASSERT_EQ(a.Delta, b.Delta) << "step " << b.step;
+    ASSERT_EQ(a.residual, b.residual) << "step " << b.step;
+  }
+}
+}  // namespace
+
 TEST(ImpactRestart, ContinuesWithTheAttemptTheStepsBeforeNeeded) {
   // M = 20, L = 20 on 65^2 retries steps of its rebound, so some step ends
   // with a damped attempt as the next one's first (AttemptMemory).  A restart
@@ -1056,14 +1072,7 @@ TEST(ImpactRestart, ContinuesWithTheAttemptTheStepsBeforeNeeded) {
                                    [](const ImpactState& s) { return s.attempts.first > 0; });
   ASSERT_NE(damped, states.end()) << "no step began with a retry's damping";
   const RunResult resumed = run_restarted(cfg, *damped);
-  ASSERT_EQ(resumed.records.size() + damped->step, full.records.size());
-  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
-    const StepRecord& a = full.records[damped->step + k];
-    const StepRecord& b = resumed.records[k];
-    ASSERT_EQ(a.attempts, b.attempts) << "step " << b.step;
-    ASSERT_EQ(a.Delta, b.Delta) << "step " << b.step;
-    ASSERT_EQ(a.residual, b.residual) << "step " << b.step;
-  }
+  expect_steps_repeated(full, resumed, damped->step);
   EXPECT_EQ(resumed.summary.retried_steps, full.summary.retried_steps);
   EXPECT_EQ(resumed.summary.rebound_speed, full.summary.rebound_speed);
 }
@@ -1083,15 +1092,7 @@ TEST(ImpactRestart, ContinuesInTheHalvesTheStepsBeforeNeeded) {
                                    [](const ImpactState& s) { return s.splits.begin.first > 0; });
   ASSERT_NE(halved, states.end()) << "no step began in halves";
   const RunResult resumed = run_restarted(cfg, *halved);
-  ASSERT_EQ(resumed.records.size() + halved->step, full.records.size());
-  for (std::size_t k = 0; k < resumed.records.size(); ++k) {
-    const StepRecord& a = full.records[halved->step + k];
-    const StepRecord& b = resumed.records[k];
-    ASSERT_EQ(a.attempts, b.attempts) << "step " << b.step;
-    ASSERT_EQ(a.cycles, b.cycles) << "step " << b.step;
-    ASSERT_EQ(a.Delta, b.Delta) << "step " << b.step;
-    ASSERT_EQ(a.residual, b.residual) << "step " << b.step;
-  }
+  expect_steps_repeated(full, resumed, halved->step);
   EXPECT_EQ(resumed.summary.rebound_speed, full.summary.rebound_speed);
 
   // Without the memory the resumed run tries its next step whole again.
