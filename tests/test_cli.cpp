@@ -32,6 +32,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using ehlsim::testing::ehlsim;
+using ehlsim::testing::library_crash;
 using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
@@ -603,10 +604,6 @@ TEST(Cli, RestartRefusesADamagedCheckpoint) {
             "ehlsim: error: " + prefix + "field 'step' = 2147483647: must be in [1, 10000000]\n")
       << r.err;
   EXPECT_FALSE(fs::exists(dir / "second"));
-}
-
-fs::path library_crash(const std::string& name) {
-  return source_dir() / "tests" / "fuzz-library-crashes" / name;
 }
 
 /// Exit 2 and one line "ehlsim: error: <prefix>the NetCDF/HDF5 library

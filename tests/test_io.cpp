@@ -65,6 +65,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using ehlsim::testing::library_crash;
 using ehlsim::testing::read_file;
 using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
@@ -970,10 +971,6 @@ TEST(DamagedFiles, FuzzerFindingsFailCleanly) {
 // ---------------------------------------------------------------------------
 // Untrusted files read in a child process first (io/IsolatedIo.hpp)
 // ---------------------------------------------------------------------------
-
-fs::path library_crash(const std::string& name) {
-  return source_dir() / "tests" / "fuzz-library-crashes" / name;
-}
 
 std::string untrusted_checkpoint_error(const fs::path& path) {
   return read_error([&] { (void)read_untrusted_checkpoint(path); });

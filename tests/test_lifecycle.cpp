@@ -50,10 +50,10 @@ namespace fs = std::filesystem;
 using ehlsim::testing::ehlsim;
 using ehlsim::testing::ehlsim_binary;
 using ehlsim::testing::eio_shim;
+using ehlsim::testing::library_crash;
 using ehlsim::testing::quote;
 using ehlsim::testing::read_file;
 using ehlsim::testing::Result;
-using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
 
@@ -1717,10 +1717,6 @@ pid_t wait_for_reader(const Child& c) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   return -1;
-}
-
-fs::path library_crash(const std::string& name) {
-  return source_dir() / "tests" / "fuzz-library-crashes" / name;
 }
 
 /// HDF5 loops for ever on these files, and before, SIGTERM and SIGINT only set

@@ -82,7 +82,7 @@ inline constexpr int kMaxSplitDepth = 5;
 /// AttemptMemory).  In the pocket collapse of M = 100, L = 20 on 1025^2 every
 /// step from T = 4.05 on failed whole and in halves, each after up to four
 /// attempts of 20-40 cycles, before its quarters or eighths converged:
-/// 230-560 cycles per step, 80-90 % of them in the intervals that failed
+/// 228-799 cycles per step, 80-90 % of them in the intervals that failed
 /// (docs/performance.md, "Steps that begin in halves").  A single step that
 /// needs halves (M = 1000, L = 20 on 65^2, where the film first carries the
 /// load) leaves the next one whole, as do the case maps' few.

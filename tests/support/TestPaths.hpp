@@ -31,6 +31,11 @@ inline std::filesystem::path source_dir() { return test_path("EHLSIM_SOURCE_DIR"
 /// The ehlsim binary of this build.
 inline std::string ehlsim_binary() { return test_path("EHLSIM_BINARY"); }
 
+/// A damaged file that crashes the NetCDF/HDF5 library (tests/fuzz-library-crashes).
+inline std::filesystem::path library_crash(const std::string& name) {
+  return source_dir() / "tests" / "fuzz-library-crashes" / name;
+}
+
 /// The LD_PRELOAD library that injects EIO (tests/support/eio_shim.cpp).
 inline std::string eio_shim() { return test_path("EHLSIM_EIO_SHIM"); }
 
