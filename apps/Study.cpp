@@ -207,29 +207,81 @@ pid_t spawn(const std::string& program, std::vector<std::string> args, const fs:
   return pid;
 }
 
-/// In the child of spawn_group_leader: the process group, the death signal,
-/// the log and the program; only system calls (the study may have threads).
+/// The signal the kernel sends the figure script's guardian when the study
+/// dies (PR_SET_PDEATHSIG): one the study never forwards to the group.
+constexpr int kStudyDiedSignal = SIGUSR2;
+
+/// A child's exit code, or kExitSignalBase + the signal that ended it.
+int exit_code_of(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return WIFSIGNALED(status) ? kExitSignalBase + WTERMSIG(status) : cli::kExitFailure;
+}
+
+/// In the script's process, a child of its guardian: the death signal, the
+/// study's signal mask and default dispositions back, then the program.
 /// Writes errno to `report` (close-on-exec) when the program cannot start.
-[[noreturn]] void become_group_leader(const char* program, char** argv, char** envp,
-                                      const char* log, pid_t study, int report) {
-  setpgid(0, 0);
+[[noreturn]] void exec_script(const char* program, char** argv, char** envp, pid_t guardian,
+                              const sigset_t& study_mask, int report) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
-  if (getppid() != study) _exit(cli::kExitFailure);  // the study ended before prctl
-  const int in = open("/dev/null", O_RDONLY);
-  const int out = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (in >= 0 && out >= 0 && dup2(in, STDIN_FILENO) >= 0 && dup2(out, STDOUT_FILENO) >= 0 &&
-      dup2(out, STDERR_FILENO) >= 0)
-    execve(program, argv, envp);
+  if (getppid() != guardian) _exit(cli::kExitFailure);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGCHLD, kStudyDiedSignal})
+    ::signal(signal, SIG_DFL);
+  sigprocmask(SIG_SETMASK, &study_mask, nullptr);
+  execve(program, argv, envp);
   const int error = errno;
   (void)!write(report, &error, sizeof error);
   _exit(cli::kExitFailure);
 }
 
-/// spawn for the figure script, as the leader of a process group of its own:
-/// the study signals the group, so that what the script started ends with it
-/// (a `sleep` of the script outlived a study stopped during the script), and
-/// the script gets SIGKILL when the study is killed (PR_SET_PDEATHSIG), which
-/// being in another group than the study's no longer does for it.
+/// In the child of spawn_group_leader, the leader of the script's process
+/// group: the guardian.  It starts the script as its own child and waits for
+/// it; when the study dies (even by SIGKILL, which the study cannot pass on)
+/// the kernel tells it (PR_SET_PDEATHSIG), and it kills the whole group, so
+/// that nothing the script started outlives the study.  The signals the study
+/// forwards to the group reach the script; the guardian holds them blocked.
+/// Only system calls (the study may have threads).
+[[noreturn]] void become_group_leader(const char* program, char** argv, char** envp,
+                                      const char* log, pid_t study, int report) {
+  setpgid(0, 0);
+  sigset_t study_mask;
+  sigset_t waited;
+  sigemptyset(&waited);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGCHLD, kStudyDiedSignal})
+    sigaddset(&waited, signal);
+  sigprocmask(SIG_BLOCK, &waited, &study_mask);
+  prctl(PR_SET_PDEATHSIG, kStudyDiedSignal);
+  if (getppid() != study) _exit(cli::kExitFailure);  // the study ended before prctl
+  const int in = open("/dev/null", O_RDONLY);
+  const int out = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (in < 0 || out < 0 || dup2(in, STDIN_FILENO) < 0 || dup2(out, STDOUT_FILENO) < 0 ||
+      dup2(out, STDERR_FILENO) < 0) {
+    const int error = errno;
+    (void)!write(report, &error, sizeof error);
+    _exit(cli::kExitFailure);
+  }
+  // A launcher's ignored SIGCHLD would reap the script unseen.
+  ::signal(SIGCHLD, SIG_DFL);
+  const pid_t guardian = getpid();
+  const pid_t script = fork();
+  if (script == 0) exec_script(program, argv, envp, guardian, study_mask, report);
+  close(report);
+  if (script < 0) _exit(cli::kExitFailure);
+  for (;;) {
+    siginfo_t info{};
+    const int signal = sigwaitinfo(&waited, &info);
+    if (signal == kStudyDiedSignal) kill(0, SIGKILL);  // the group, the guardian included
+    int status = 0;
+    if (signal == SIGCHLD && waitpid(script, &status, WNOHANG) == script)
+      _exit(exit_code_of(status));  // the script's code, as the study reads it
+  }
+}
+
+/// spawn for the figure script, in a process group of its own led by its
+/// guardian (become_group_leader): the study signals the group, so that what
+/// the script started ends with it (a `sleep` of the script outlived a study
+/// stopped during the script), and the guardian kills the group when the
+/// study is killed (a `kill -9` of the study alone left the script's own
+/// children running).
 pid_t spawn_group_leader(const std::string& program, std::vector<std::string> args,
                          const fs::path& log) {
   std::vector<std::string> env = child_environment();
@@ -259,11 +311,6 @@ pid_t spawn_group_leader(const std::string& program, std::vector<std::string> ar
   }
   setpgid(pid, pid);  // also here, before the study may signal the group (EACCES once exec'd)
   return pid;
-}
-
-int exit_code_of(int status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  return WIFSIGNALED(status) ? kExitSignalBase + WTERMSIG(status) : cli::kExitFailure;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point start) {

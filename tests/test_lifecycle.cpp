@@ -1457,6 +1457,14 @@ TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   EXPECT_FALSE(fs::exists(study / "figures"));
 }
 
+/// Whether `path` (a /proc entry) is gone within `limit`.
+bool gone_within(const fs::path& path, std::chrono::seconds limit) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (fs::exists(path) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  return !fs::exists(path);
+}
+
 TEST(Lifecycle, WhatTheFigureScriptStartedEndsWithTheStudy) {
   // The study signalled the script's process only: a `sleep` it had started
   // ran on after the study had ended.
@@ -1476,10 +1484,19 @@ TEST(Lifecycle, WhatTheFigureScriptStartedEndsWithTheStudy) {
   const Result r = result_of(c);
   EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
   // Ended by the signal, and reaped by init: gone within moments.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (fs::exists(sleeper) && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_FALSE(fs::exists(sleeper)) << "the figure script's sleep runs on";
+  EXPECT_TRUE(gone_within(sleeper, std::chrono::seconds(10)))
+      << "the figure script's sleep runs on";
+
+  // Nor after a `kill -9` of the study alone, which can pass nothing on: the
+  // script's guardian kills the group (a sleep of the script ran on).
+  fs::remove(started);
+  const Child killed = start(tiny_study_with_script(study, script), work / "killed");
+  ASSERT_TRUE(wait_for_path(started));
+  const std::string orphan = "/proc/" + std::to_string(std::stoi(read_file(started)));
+  ASSERT_TRUE(fs::exists(orphan));
+  kill(killed.pid, SIGKILL);
+  EXPECT_EQ(result_of(killed).exit_code, 137);
+  EXPECT_TRUE(gone_within(orphan, std::chrono::seconds(10))) << "the figure script's sleep runs on";
 
   // Nor does what a script that succeeded left running: it wrote into the
   // figures' staging directory after the study had ended.
