@@ -13,6 +13,7 @@
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdint>
@@ -1643,10 +1644,32 @@ TEST(RunDirectory, RefusesACheckpointBesideItThatIsNotEhlsims) {
   EXPECT_TRUE(fs::is_symlink(checkpoint));
 }
 
+/// Builds below `dir` a chain of directories whose full path is longer than
+/// PATH_MAX, with a file at its end (made relative to descriptors, as the
+/// paths themselves are too long for the system calls).
+void make_tree_deeper_than_path_max(const fs::path& dir) {
+  const std::string name(200, 'd');
+  int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  for (std::size_t length = 0; length <= PATH_MAX; length += name.size() + 1) {
+    ASSERT_EQ(::mkdirat(fd, name.c_str(), 0755), 0);
+    const int child = ::openat(fd, name.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    ::close(fd);
+    ASSERT_GE(child, 0);
+    fd = child;
+  }
+  const int file = ::openat(fd, "debris", O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  EXPECT_GE(file, 0);
+  ::close(file);
+  ::close(fd);
+}
+
 TEST(RunDirectory, RemovesTheDebrisOfAKilledRun) {
   TempDir dir;
   fs::create_directories(dir / ".run.part-999999");
   write_file(dir / ".run.part-999999" / "fields.nc.part", "debris");
+  // Removed by paths, a tree deeper than PATH_MAX stayed ("File name too long").
+  make_tree_deeper_than_path_max(dir / ".run.part-999999");
   fs::create_directories(dir / ".run.old-999999");
   fs::create_directories(dir / ".other.part-999999");  // another target's: not ours
   // Not a killed run's: no process id, or a live process's (init's).

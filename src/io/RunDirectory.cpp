@@ -1,5 +1,6 @@
 #include "io/RunDirectory.hpp"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <fmt/chrono.h>
 #include <fmt/format.h>
@@ -287,14 +288,20 @@ FileStamp stamp_of(const fs::path& path) {
       static_cast<std::int64_t>(st.st_mtim.tv_sec) * kNanosecondsPerSecond + st.st_mtim.tv_nsec};
 }
 
-/// Whether `path` (a directory, or a file) is where another file system, or a
-/// bind mount of this one (the same st_dev: only statx tells), is mounted.
-bool is_mount_point(const fs::path& path, dev_t device_above) {
+/// Whether `name` in the directory `dir_fd` (a directory, or a file) is where
+/// another file system, or a bind mount of this one (the same st_dev: only
+/// statx tells), is mounted.
+bool is_mount_point_at(int dir_fd, const char* name, dev_t device_above) {
   struct statx st {};
-  if (statx(AT_FDCWD, path.c_str(), AT_SYMLINK_NOFOLLOW, STATX_BASIC_STATS, &st) != 0) return false;
+  if (statx(dir_fd, name, AT_SYMLINK_NOFOLLOW, STATX_BASIC_STATS, &st) != 0) return false;
   if (makedev(st.stx_dev_major, st.stx_dev_minor) != device_above) return true;
   return (st.stx_attributes_mask & STATX_ATTR_MOUNT_ROOT) != 0 &&
          (st.stx_attributes & STATX_ATTR_MOUNT_ROOT) != 0;
+}
+
+/// The same for `path`.
+bool is_mount_point(const fs::path& path, dev_t device_above) {
+  return is_mount_point_at(AT_FDCWD, path.c_str(), device_above);
 }
 
 /// The device of the directory that holds `path`.
@@ -304,23 +311,47 @@ dev_t device_of_parent(const fs::path& path) {
   return ::stat(above.c_str(), &parent) == 0 ? parent.st_dev : 0;
 }
 
-/// remove_within_mount below `dir`, a directory on the device `device`.
-void remove_entries_within_mount(const fs::path& dir, dev_t device) noexcept {
-  std::error_code ec;
-  std::vector<fs::path> entries;
-  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator();
-       it.increment(ec))
-    entries.push_back(it->path());
-  for (const fs::path& entry : entries) {
+/// How deep remove_entries_within_mount descends, one open descriptor per
+/// level: a tree deeper than this keeps what lies below it.
+constexpr int kMaxRemovalDepth = 256;
+
+/// The names in the directory `dir_fd`, but "." and "..".
+std::vector<std::string> names_in(int dir_fd) {
+  std::vector<std::string> names;
+  const int listing = ::dup(dir_fd);
+  DIR* dir = listing < 0 ? nullptr : ::fdopendir(listing);
+  if (dir == nullptr) {
+    if (listing >= 0) ::close(listing);
+    return names;
+  }
+  while (const dirent* entry = ::readdir(dir)) {
+    const std::string_view name = entry->d_name;
+    if (name != "." && name != "..") names.emplace_back(name);
+  }
+  ::closedir(dir);
+  return names;
+}
+
+/// remove_within_mount below the directory `dir_fd`, on the device `device`.
+/// Relative to descriptors, not paths: a leftover tree deeper than PATH_MAX
+/// (lstat of its full paths said "File name too long") goes as well.
+void remove_entries_within_mount(int dir_fd, dev_t device, int depth) noexcept {
+  for (const std::string& name : names_in(dir_fd)) {
     struct stat st {};
-    if (::lstat(entry.c_str(), &st) != 0) continue;
-    if (!S_ISLNK(st.st_mode) && is_mount_point(entry, device)) continue;  // and its parents stay
-    if (S_ISDIR(st.st_mode)) {
-      remove_entries_within_mount(entry, device);
-      ::rmdir(entry.c_str());
-    } else {
-      ::unlink(entry.c_str());
+    if (::fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
+    if (!S_ISLNK(st.st_mode) && is_mount_point_at(dir_fd, name.c_str(), device))
+      continue;  // and its parents stay
+    if (!S_ISDIR(st.st_mode)) {
+      ::unlinkat(dir_fd, name.c_str(), 0);
+      continue;
     }
+    if (depth >= kMaxRemovalDepth) continue;
+    const int child =
+        ::openat(dir_fd, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (child < 0) continue;
+    remove_entries_within_mount(child, device, depth + 1);
+    ::close(child);
+    ::unlinkat(dir_fd, name.c_str(), AT_REMOVEDIR);
   }
 }
 }  // namespace
@@ -333,7 +364,10 @@ void remove_within_mount(const fs::path& path) noexcept {
     return;
   }
   if (is_mount_point(path, device_of_parent(path))) return;
-  remove_entries_within_mount(path, st.st_dev);
+  const int dir = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (dir < 0) return;
+  remove_entries_within_mount(dir, st.st_dev, 0);
+  ::close(dir);
   ::rmdir(path.c_str());
 }
 
@@ -539,7 +573,7 @@ fs::path put_in_place(const fs::path& staging, const fs::path& target, bool targ
 /// After put_in_place: the renames made durable and the earlier contents removed.
 void settle_replacement(const fs::path& target, const fs::path& old) {
   sync_path(target.parent_path());
-  std::error_code ec;  // leftovers are the next writer's debris, not this one's failure
+  // Leftovers are the next writer's debris, not this one's failure (noexcept).
   if (!old.empty()) remove_within_mount(old);
 }
 
