@@ -544,6 +544,23 @@ TEST(Checkpoint, DamagedFilesNameTheFileAndTheField) {
             prefix +
                 "field 'format_version' is 2; this ehlsim reads version 9 only (checkpoints "
                 "of other versions cannot be continued: run the case again from the start)");
+  // A version of another type, or none, is the field's fault, not the title's.
+  fresh();
+  ehlsim::testing::rewrite_attribute(path, "format_version", 9.0);
+  EXPECT_EQ(checkpoint_error(path),
+            prefix + "field 'format_version' is not a single value of its type");
+  fresh();
+  ehlsim::testing::delete_attribute(path, "format_version");
+  EXPECT_EQ(checkpoint_error(path), prefix + "field 'format_version' is missing");
+  // A flag is 0 or 1: 7 was read as true and passed the checksum.
+  for (const char* flag : {"had_pressure", "attempts_probing", "splits_probing"}) {
+    for (const int value : {7, -1}) {
+      fresh();
+      ehlsim::testing::rewrite_attribute(path, flag, value);
+      EXPECT_EQ(checkpoint_error(path),
+                prefix + fmt::format("field '{}' = {}: must be 0 or 1", flag, value));
+    }
+  }
 }
 
 TEST(Checkpoint, ImplausibleStatesAreRefusedEvenWithAValidChecksum) {

@@ -31,6 +31,15 @@ void rewrite_attribute(const std::filesystem::path& path, const char* name, T va
   ASSERT_EQ(nc_close(id), NC_NOERR);
 }
 
+/// Removes the global attribute `name`.
+inline void delete_attribute(const std::filesystem::path& path, const char* name) {
+  int id = -1;
+  ASSERT_EQ(nc_open(path.c_str(), NC_WRITE, &id), NC_NOERR);
+  ASSERT_EQ(nc_redef(id), NC_NOERR);
+  ASSERT_EQ(nc_del_att(id, NC_GLOBAL, name), NC_NOERR);
+  ASSERT_EQ(nc_close(id), NC_NOERR);
+}
+
 /// Rewrites one value of the NetCDF variable `name` at `index`.
 inline void rewrite_value(const std::filesystem::path& path, const char* name,
                           const std::vector<std::size_t>& index, double value) {
