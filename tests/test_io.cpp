@@ -1903,6 +1903,23 @@ TEST(RunDirectory, AnAmendmentKeepsTheModeAndTimesOfItsDirectories) {
   fs::permissions(target / "gauss" / "deep", fs::perms::owner_all);  // for TempDir's removal
 }
 
+TEST(RunDirectory, ARunKeepsTheModeOfTheDirectoryItReplaces) {
+  // A rerun into a private run directory (700) made it world-readable (755).
+  TempDir dir;
+  const fs::path target = dir / "run";
+  write_earlier_run(target);
+  const fs::perms private_mode = fs::perms::owner_all | fs::perms::group_read |
+                                 fs::perms::group_exec | fs::perms::set_gid;
+  fs::permissions(target, private_mode);
+  {
+    RunDirectory run(target);
+    write_file(run.staging() / "run.json", "{}");
+    run.publish();
+  }
+  EXPECT_EQ(mode_and_mtime(target).first, private_mode);
+  EXPECT_EQ(read_file(target / "run.json"), "{}");
+}
+
 TEST(RunDirectory, RefusesTheWorkingDirectoryOrOneThatHoldsIt) {
   // The swap gives DIR a new inode: a shell working in it is left in a deleted directory.
   TempDir dir;

@@ -41,6 +41,8 @@ namespace {
 
 constexpr std::string_view kLockSuffix = ".lock";
 constexpr std::string_view kStagingInfix = ".part-";
+/// The permission bits of a mode (with set-user-ID, set-group-ID and sticky).
+constexpr mode_t kPermissionBits = 07777;
 constexpr std::string_view kOldInfix = ".old-";
 constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
 constexpr std::size_t kHostNameLength = 256;
@@ -238,7 +240,6 @@ void copy_contents(const fs::path& from, const fs::path& to) {
     ::close(in);
     fail(error);
   }
-  constexpr mode_t kPermissionBits = 07777;
   const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
                          source.st_mode & kPermissionBits);
   if (out < 0) {
@@ -443,6 +444,16 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
   return entries;
 }
 
+/// Gives the directory `copy` the permission bits of the directory `source`.
+void copy_directory_mode(const fs::path& source, const fs::path& copy) {
+  struct stat st {};
+  if (::stat(source.c_str(), &st) != 0) {
+    throw std::runtime_error(fmt::format("cannot read the attributes of '{}': {}", source.string(),
+                                         system_message(errno)));
+  }
+  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & kPermissionBits));
+}
+
 /// Gives `copy` the mode, owner and times of the directory `source`: an
 /// amended run directory (and each directory in it) is made anew, and a
 /// private one (700) came out world-readable (755), owned by whoever ran
@@ -457,7 +468,7 @@ void copy_directory_attributes(const fs::path& source, const fs::path& copy) {
     throw std::runtime_error(
         fmt::format("cannot set the owner of '{}': {}", copy.string(), system_message(errno)));
   }
-  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & 07777));
+  copy_directory_mode(source, copy);
   const std::array<timespec, 2> times = {st.st_atim, st.st_mtim};
   ::utimensat(AT_FDCWD, copy.c_str(), times.data(), 0);  // the times are a courtesy
 }
@@ -785,8 +796,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
 
 RunDirectory::~RunDirectory() {
   if (published_) return;
-  std::error_code ec;  // nothing to report from a destructor
-  remove_within_mount(staging_);
+  remove_within_mount(staging_);  // noexcept: nothing to report from a destructor
 }
 
 fs::path RunDirectory::checkpoint() const {
@@ -843,6 +853,9 @@ void RunDirectory::publish(bool resumed_from_checkpoint) {
     carried_ = entries_below(resolved_, replaced_, target_);
     carry_over(resolved_, staging_, carried_);
     if (fs::exists(resolved_)) copy_directory_attributes(resolved_, staging_);
+  } else if (fs::exists(resolved_)) {
+    // A rerun made DIR anew: a private (700) directory came back 755.
+    copy_directory_mode(resolved_, staging_);
   }
   sync_path(staging_);
   stop_here_for_tests("publish");
