@@ -1908,8 +1908,8 @@ TEST(RunDirectory, ARunKeepsTheModeOfTheDirectoryItReplaces) {
   TempDir dir;
   const fs::path target = dir / "run";
   write_earlier_run(target);
-  const fs::perms private_mode = fs::perms::owner_all | fs::perms::group_read |
-                                 fs::perms::group_exec | fs::perms::set_gid;
+  const fs::perms private_mode =
+      fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::set_gid;
   fs::permissions(target, private_mode);
   {
     RunDirectory run(target);
