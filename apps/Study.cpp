@@ -211,6 +211,17 @@ pid_t spawn(const std::string& program, std::vector<std::string> args, const fs:
 /// dies (PR_SET_PDEATHSIG): one the study never forwards to the group.
 constexpr int kStudyDiedSignal = SIGUSR2;
 
+/// The signals the guardian waits for (and holds blocked), whose default
+/// dispositions the script gets back.
+constexpr std::array kGuardianSignals = {SIGINT, SIGTERM, SIGHUP, SIGCHLD, kStudyDiedSignal};
+
+/// In a child that could not start the script: errno to `report`, then exit.
+[[noreturn]] void report_start_failure(int report) {
+  const int error = errno;
+  (void)!write(report, &error, sizeof error);
+  _exit(cli::kExitFailure);
+}
+
 /// A child's exit code, or kExitSignalBase + the signal that ended it.
 int exit_code_of(int status) {
   if (WIFEXITED(status)) return WEXITSTATUS(status);
@@ -224,13 +235,10 @@ int exit_code_of(int status) {
                               const sigset_t& study_mask, int report) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (getppid() != guardian) _exit(cli::kExitFailure);
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGCHLD, kStudyDiedSignal})
-    ::signal(signal, SIG_DFL);
+  for (const int signal : kGuardianSignals) ::signal(signal, SIG_DFL);
   sigprocmask(SIG_SETMASK, &study_mask, nullptr);
   execve(program, argv, envp);
-  const int error = errno;
-  (void)!write(report, &error, sizeof error);
-  _exit(cli::kExitFailure);
+  report_start_failure(report);
 }
 
 /// In the child of spawn_group_leader, the leader of the script's process
@@ -246,19 +254,15 @@ int exit_code_of(int status) {
   sigset_t study_mask;
   sigset_t waited;
   sigemptyset(&waited);
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP, SIGCHLD, kStudyDiedSignal})
-    sigaddset(&waited, signal);
+  for (const int signal : kGuardianSignals) sigaddset(&waited, signal);
   sigprocmask(SIG_BLOCK, &waited, &study_mask);
   prctl(PR_SET_PDEATHSIG, kStudyDiedSignal);
   if (getppid() != study) _exit(cli::kExitFailure);  // the study ended before prctl
   const int in = open("/dev/null", O_RDONLY);
   const int out = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
   if (in < 0 || out < 0 || dup2(in, STDIN_FILENO) < 0 || dup2(out, STDOUT_FILENO) < 0 ||
-      dup2(out, STDERR_FILENO) < 0) {
-    const int error = errno;
-    (void)!write(report, &error, sizeof error);
-    _exit(cli::kExitFailure);
-  }
+      dup2(out, STDERR_FILENO) < 0)
+    report_start_failure(report);
   // A launcher's ignored SIGCHLD would reap the script unseen.
   ::signal(SIGCHLD, SIG_DFL);
   const pid_t guardian = getpid();

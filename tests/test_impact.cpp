@@ -1650,7 +1650,7 @@ TEST(SplitMemory, BeginsInHalvesOnlyAfterTwoStepsThatNeededThem) {
   memory = remember_split(memory, kMaxSplitDepth + 1);  // beyond the deepest rescue
   EXPECT_EQ(memory.begin.first, 1);                     // the step before needed halves
   EXPECT_EQ(memory.last_needed, kMaxSplitDepth);
-  const int deep = kMaxSplitDepth;  // sixteenths where eighths fail (1025^2, L = 20)
+  const int deep = kMaxSplitDepth;  // thirty-seconds where sixteenths fail (1025^2, L = 20)
   memory = remember_split(memory, deep);
   EXPECT_EQ(memory.begin.first, deep);
   for (int k = 1; k < kStepsBeforeLighterAttempt; ++k) {

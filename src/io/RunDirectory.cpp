@@ -444,14 +444,19 @@ std::vector<CarriedEntry> entries_below(const fs::path& dir,
   return entries;
 }
 
-/// Gives the directory `copy` the permission bits of the directory `source`.
-void copy_directory_mode(const fs::path& source, const fs::path& copy) {
+/// stat() of `source`; throws std::runtime_error naming it when that fails.
+struct stat attributes_of(const fs::path& source) {
   struct stat st {};
   if (::stat(source.c_str(), &st) != 0) {
     throw std::runtime_error(fmt::format("cannot read the attributes of '{}': {}", source.string(),
                                          system_message(errno)));
   }
-  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & kPermissionBits));
+  return st;
+}
+
+/// Gives the directory `copy` the permission bits of the directory `source`.
+void copy_directory_mode(const fs::path& source, const fs::path& copy) {
+  fs::permissions(copy, static_cast<fs::perms>(attributes_of(source).st_mode & kPermissionBits));
 }
 
 /// Gives `copy` the mode, owner and times of the directory `source`: an
@@ -459,16 +464,12 @@ void copy_directory_mode(const fs::path& source, const fs::path& copy) {
 /// private one (700) came out world-readable (755), owned by whoever ran
 /// ehlsim spike.  The owner is kept where this user may set it (root).
 void copy_directory_attributes(const fs::path& source, const fs::path& copy) {
-  struct stat st {};
-  if (::stat(source.c_str(), &st) != 0) {
-    throw std::runtime_error(fmt::format("cannot read the attributes of '{}': {}", source.string(),
-                                         system_message(errno)));
-  }
+  const struct stat st = attributes_of(source);
   if (::chown(copy.c_str(), st.st_uid, st.st_gid) != 0 && errno != EPERM) {
     throw std::runtime_error(
         fmt::format("cannot set the owner of '{}': {}", copy.string(), system_message(errno)));
   }
-  copy_directory_mode(source, copy);
+  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & kPermissionBits));
   const std::array<timespec, 2> times = {st.st_atim, st.st_mtim};
   ::utimensat(AT_FDCWD, copy.c_str(), times.data(), 0);  // the times are a courtesy
 }
