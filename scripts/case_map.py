@@ -20,10 +20,14 @@ import shutil
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 M_VALUES = [1, 2, 3, 5, 10, 20, 50, 100, 200, 500, 1000]
 L_VALUES = [0, 5, 10, 20]
-ROELANDS = "examples/roelands-dh.toml"
+# Paths from the repository, so that the script runs from any directory.
+ROOT = Path(__file__).resolve().parent.parent
+ROELANDS = str(ROOT / "examples" / "roelands-dh.toml")
+BINARY = str(ROOT / "build" / "apps" / "ehlsim")
 
 
 def cases():
@@ -182,7 +186,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", type=int, default=65)
     ap.add_argument("--out", default=None)
-    ap.add_argument("--binary", default="build/apps/ehlsim")
+    ap.add_argument("--binary", default=BINARY)
     ap.add_argument("--timeout", type=float, default=900.0)
     ap.add_argument("--only", default="")
     a = ap.parse_args()

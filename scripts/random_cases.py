@@ -37,7 +37,7 @@ import random
 import shutil
 import sys
 
-from case_map import run_case
+from case_map import BINARY, run_case
 
 
 def lubricant_sets(rng):
@@ -160,7 +160,7 @@ def main():
     parser.add_argument("--seed", type=int, default=11)
     parser.add_argument("--cases", type=int, default=60)
     parser.add_argument("--out", default="random-cases")
-    parser.add_argument("--binary", default="build/apps/ehlsim")
+    parser.add_argument("--binary", default=BINARY)
     parser.add_argument("--grids", default="65,129",
                         help="points per side to draw from, comma-separated")
     parser.add_argument("--max-M", type=float, default=2000.0,
