@@ -39,8 +39,7 @@ void print_rolling_case(const RollingConfig& c, const std::string& out_dir) {
       "  case       M = {:.6g}, L = {:.6g}, D = {:.6g} (lambda_bar = {:.6g}, alpha_bar = "
       "{:.6g})\n",
       c.M, c.L, c.D, c.lambda_bar, c.alpha_bar);
-  print_out("  lubricant  {}, {}\n", viscosity_model_text(c.lubricant.viscosity),
-            density_model_text(c.lubricant.density));
+  print_out("  lubricant  {}\n", lubricant_text(c.lubricant));
   print_out("  grid       {}^2 on X in [{:g}, {:g}], Y in [{:g}, {:g}]\n", c.grid_points, c.x_min,
             c.x_max, c.y_min, c.y_max);
   std::fflush(stdout);

@@ -108,13 +108,7 @@ void print_case(const ImpactConfig& c, const std::string& out_dir) {
         "t_bar = {:.4g} s\n",
         p.delta_star_m, p.a_star_m, p.ph_star_Pa, p.F_star_N, p.t_bar_s);
   }
-  std::string lubricant =
-      fmt::format("{}, {}", viscosity_model_text(c.viscosity), density_model_text(c.density));
-  if (c.viscosity == ViscosityModel::Roelands) {
-    lubricant += fmt::format(" (eta0 = {:.4g} Pa s, z = {:.4g})", c.eta0_Pa_s, c.roelands_z);
-  }
-  if (c.ph_star_Pa > 0.0) lubricant += fmt::format(", ph* = {:.4g} Pa", c.ph_star_Pa);
-  print_out("  lubricant  {}\n", lubricant);
+  print_out("  lubricant  {}\n", lubricant_text(c.lubricant));
   print_out("  body       {}{}\n", c.elastic ? "elastic" : "rigid",
             c.waviness_amplitude > 0.0
                 ? fmt::format(", waviness A = {:.4g}, wavelength {:.4g}, angle {:.4g} deg",

@@ -220,8 +220,8 @@ TEST(Registry, DefaultsAreTheEmbeddedDefaultCase) {
   EXPECT_FALSE(c.physical);
   EXPECT_EQ(c.M, d.M);
   EXPECT_EQ(c.L, d.L);
-  EXPECT_EQ(c.viscosity, d.viscosity);
-  EXPECT_EQ(c.density, d.density);
+  EXPECT_EQ(c.lubricant.viscosity, d.lubricant.viscosity);
+  EXPECT_EQ(c.lubricant.density, d.lubricant.density);
   EXPECT_EQ(c.elastic, d.elastic);
   EXPECT_EQ(c.grid_points, 257);
   EXPECT_EQ(c.grid_points, d.grid_points);
@@ -291,11 +291,11 @@ deformation = "direct"
   // The Roelands law's z sets L (Parameters.ARoelandsLawGivenItsOwnAlphaHasItsOwnL).
   EXPECT_DOUBLE_EQ(c.alpha_bar, 0.6 * (std::log(0.04) + 9.67) / 1.96e8 * 1e9);
   EXPECT_DOUBLE_EQ(c.L, moes_L(c.lambda_bar, c.alpha_bar));
-  EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
-  EXPECT_EQ(c.density, DensityModel::DowsonHigginson);
-  EXPECT_EQ(c.eta0_Pa_s, 0.04);
-  EXPECT_EQ(c.roelands_z, 0.6);
-  EXPECT_EQ(c.ph_star_Pa, 1e9);
+  EXPECT_EQ(c.lubricant.viscosity, ViscosityModel::Roelands);
+  EXPECT_EQ(c.lubricant.density, DensityModel::DowsonHigginson);
+  EXPECT_EQ(c.lubricant.eta0_Pa_s, 0.04);
+  EXPECT_EQ(c.lubricant.roelands_z, 0.6);
+  EXPECT_EQ(c.lubricant.ph_star_Pa, 1e9);
   EXPECT_FALSE(c.elastic);
   EXPECT_EQ(c.grid_points, 129);
   EXPECT_EQ(c.half_width, 2.0);
@@ -324,7 +324,7 @@ TEST(Registry, SetOverridesUseTomlValueSyntax) {
                    "lubricant.ph_star=1e9", "body.elastic=false", "output.snapshot_times=[1, 2.5]",
                    "solver.cycle=\"W\"", " grid.points = 65 ", "time.T_end=inf"});
   EXPECT_EQ(c.M, 20.0);
-  EXPECT_EQ(c.viscosity, ViscosityModel::Roelands);
+  EXPECT_EQ(c.lubricant.viscosity, ViscosityModel::Roelands);
   EXPECT_FALSE(c.elastic);
   EXPECT_EQ(c.snapshot_times, (std::vector<double>{1.0, 2.5}));
   EXPECT_EQ(c.cycle, CycleType::W);
@@ -583,7 +583,7 @@ TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
   const ImpactConfig c = load_config(std::nullopt, with_alpha);
   EXPECT_NEAR(c.alpha_bar, 20.0, 1e-12);
   EXPECT_NEAR(c.L, moes_L(c.lambda_bar, 20.0), 1e-12);
-  EXPECT_NEAR(c.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.05), 1e-15);
+  EXPECT_NEAR(c.lubricant.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.05), 1e-15);
   // z derived from case.L (neither z nor alpha given) keeps case.L.
   EXPECT_EQ(load_config(std::nullopt, roelands).L, 10.0);
   // Both is a contradiction, in a file too (examples/roelands-dh.toml gives L).
@@ -704,7 +704,7 @@ TEST(Physical, ComputesMoesParametersAndScales) {
   EXPECT_DOUBLE_EQ(c.physical->a_star_m, p.a_star_m);
   EXPECT_DOUBLE_EQ(c.physical->t_bar_s, p.t_bar_s);
   EXPECT_EQ(c.physical->rho0_kg_m3, 870.0);
-  EXPECT_DOUBLE_EQ(c.ph_star_Pa, p.ph_star_Pa);
+  EXPECT_DOUBLE_EQ(c.lubricant.ph_star_Pa, p.ph_star_Pa);
 
   // The same case with the reduced inputs.
   const ImpactConfig r = load_config(
@@ -717,9 +717,9 @@ TEST(Physical, ComputesMoesParametersAndScales) {
 
   // Roelands takes eta0, alpha and ph* from [physical].
   const ImpactConfig roelands = load_config(file, {"lubricant.viscosity=roelands"});
-  EXPECT_EQ(roelands.eta0_Pa_s, 0.04);
-  EXPECT_DOUBLE_EQ(roelands.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.04));
-  EXPECT_DOUBLE_EQ(roelands.ph_star_Pa, p.ph_star_Pa);
+  EXPECT_EQ(roelands.lubricant.eta0_Pa_s, 0.04);
+  EXPECT_DOUBLE_EQ(roelands.lubricant.roelands_z, Lubricant::roelands_z_from_alpha(2e-8, 0.04));
+  EXPECT_DOUBLE_EQ(roelands.lubricant.ph_star_Pa, p.ph_star_Pa);
 }
 
 TEST(Physical, ErrorsNameTheKey) {
@@ -767,10 +767,11 @@ TEST(Examples, AllExamplesLoad) {
   EXPECT_NEAR(p.physical->ph_star_Pa, 1.355e9, 0.0005e9);
   // roelands-dh.toml: z from alpha = alpha_bar / ph*.
   const ImpactConfig r = load_config(examples / "roelands-dh.toml", {});
-  EXPECT_EQ(r.viscosity, ViscosityModel::Roelands);
-  EXPECT_EQ(r.density, DensityModel::DowsonHigginson);
-  EXPECT_NEAR(r.roelands_z, 0.5138, 0.00005);
-  EXPECT_DOUBLE_EQ(r.roelands_z, Lubricant::roelands_z_from_alpha(r.alpha_bar / 1e9, 0.04));
+  EXPECT_EQ(r.lubricant.viscosity, ViscosityModel::Roelands);
+  EXPECT_EQ(r.lubricant.density, DensityModel::DowsonHigginson);
+  EXPECT_NEAR(r.lubricant.roelands_z, 0.5138, 0.00005);
+  EXPECT_DOUBLE_EQ(r.lubricant.roelands_z,
+                   Lubricant::roelands_z_from_alpha(r.alpha_bar / 1e9, 0.04));
 }
 
 // ---------------------------------------------------------------------------
@@ -802,6 +803,24 @@ TEST(Echo, EffectiveParametersUseRegistryKeys) {
   EXPECT_GT(p["scales"]["ph_star_Pa"].get<double>(), 1e9);
   EXPECT_EQ(effective_parameters_json(load_config(std::nullopt, {"time.T_end=3"}))["time"]["T_end"],
             3.0);
+}
+
+// The impact and the rolling contact read [lubricant] alike, so they echo it
+// alike: in run.json and in the case summary a run prints (the rolling
+// summary once named only the two laws, not the Roelands law's eta0 and z).
+TEST(Echo, BothModesDescribeTheLubricantAlike) {
+  const std::vector<std::string> roelands_dh = {"lubricant.viscosity=roelands",
+                                                "lubricant.density=dowson-higginson",
+                                                "lubricant.eta0=0.04", "lubricant.ph_star=1e9"};
+  const ImpactConfig impact = load_config(std::nullopt, roelands_dh);
+  const RollingConfig rolling = load_rolling_config(std::nullopt, roelands_dh);
+  EXPECT_EQ(effective_parameters_json(impact)["lubricant"],
+            rolling_parameters_json(rolling)["lubricant"]);
+  EXPECT_EQ(lubricant_json(impact.lubricant)["z"].get<double>(), impact.lubricant.roelands_z);
+  EXPECT_EQ(lubricant_text(impact.lubricant), lubricant_text(rolling.lubricant));
+  EXPECT_EQ(lubricant_text(impact.lubricant),
+            "roelands, dowson-higginson (eta0 = 0.04 Pa s, z = 0.5138), ph* = 1e+09 Pa");
+  EXPECT_EQ(lubricant_text(load_config(std::nullopt, {}).lubricant), "barus, incompressible");
 }
 
 }  // namespace

@@ -245,6 +245,11 @@ void add_solver_parameters(std::vector<ParameterSpec>& specs, const SolverSettin
 [[nodiscard]] std::string_view deformation_method_text(DeformationMethod method);
 [[nodiscard]] std::string_view face_mean_text(FaceMean mean);
 
+/// The echo of a lubricant's laws and inputs for run.json ([lubricant]).
+[[nodiscard]] nlohmann::json lubricant_json(const Lubricant& lubricant);
+/// The same on one line, for the case summary a run prints.
+[[nodiscard]] std::string lubricant_text(const Lubricant& lubricant);
+
 /// The echo of the SolverSettings for run.json.
 [[nodiscard]] nlohmann::json solver_settings_json(const SolverSettings& settings);
 

@@ -385,16 +385,12 @@ void assemble_impact_lubricant(const Inputs& in, ImpactConfig& c) {
   std::optional<PhysicalLubricant> physical;
   if (c.physical)
     physical = {c.physical->ph_star_Pa, c.physical->eta0_Pa_s, c.physical->alpha_per_Pa};
-  const Lubricant lub = assemble_lubricant(in, c.alpha_bar, physical);
-  const MoesGroups g = with_lubricant_L(in, lub, {c.M, c.L, c.lambda_bar, c.alpha_bar},
+  c.lubricant = assemble_lubricant(in, c.alpha_bar, physical);
+  const MoesGroups g = with_lubricant_L(in, c.lubricant, {c.M, c.L, c.lambda_bar, c.alpha_bar},
                                         {"case.L", "case.alpha_bar"}, load_key(in));
   c.L = g.L;
   c.alpha_bar = g.alpha_bar;
-  c.viscosity = lub.viscosity;
-  c.density = lub.density;
-  c.ph_star_Pa = lub.ph_star_Pa;
-  c.eta0_Pa_s = lub.eta0_Pa_s;
-  c.roelands_z = lub.roelands_z;
+  c.lubricant.alpha_bar = g.alpha_bar;
 }
 
 /// The waviness amplitude below which the undeformed gap of `c` at T = 0 is
@@ -729,13 +725,7 @@ nlohmann::json effective_parameters_json(const ImpactConfig& c) {
                    {"F_star_N", p.F_star_N},
                    {"t_bar_s", p.t_bar_s}};
   }
-  j["lubricant"] = {{"viscosity", viscosity_model_text(c.viscosity)},
-                    {"density", density_model_text(c.density)}};
-  if (c.viscosity == ViscosityModel::Roelands) {
-    j["lubricant"]["eta0"] = c.eta0_Pa_s;
-    j["lubricant"]["z"] = c.roelands_z;
-  }
-  if (c.ph_star_Pa > 0.0) j["lubricant"]["ph_star"] = c.ph_star_Pa;
+  j["lubricant"] = lubricant_json(c.lubricant);
   j["body"] = {{"elastic", c.elastic}};
   j["grid"] = {{"points", c.grid_points}, {"half_width", c.half_width}};
   j["time"] = {{"dT", effective_time_step(c)},

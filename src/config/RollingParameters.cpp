@@ -253,13 +253,7 @@ nlohmann::json rolling_parameters_json(const RollingConfig& c) {
                    {"W", p.W},
                    {"slide_to_roll", (p.u1_m_s - p.u2_m_s) / um}};
   }
-  j["lubricant"] = {{"viscosity", viscosity_model_text(c.lubricant.viscosity)},
-                    {"density", density_model_text(c.lubricant.density)}};
-  if (c.lubricant.viscosity == ViscosityModel::Roelands) {
-    j["lubricant"]["eta0"] = c.lubricant.eta0_Pa_s;
-    j["lubricant"]["z"] = c.lubricant.roelands_z;
-  }
-  if (c.lubricant.ph_star_Pa > 0.0) j["lubricant"]["ph_star"] = c.lubricant.ph_star_Pa;
+  j["lubricant"] = lubricant_json(c.lubricant);
   j["body"] = {{"elastic", c.elastic}};
   j["grid"] = {{"points", c.grid_points},
                {"x_min", c.x_min},

@@ -375,6 +375,26 @@ MoesGroups with_lubricant_L(const Inputs& in, const Lubricant& lub, MoesGroups g
   return g;
 }
 
+nlohmann::json lubricant_json(const Lubricant& lub) {
+  nlohmann::json j = {{"viscosity", viscosity_model_text(lub.viscosity)},
+                      {"density", density_model_text(lub.density)}};
+  if (lub.viscosity == ViscosityModel::Roelands) {
+    j["eta0"] = lub.eta0_Pa_s;
+    j["z"] = lub.roelands_z;
+  }
+  if (lub.ph_star_Pa > 0.0) j["ph_star"] = lub.ph_star_Pa;
+  return j;
+}
+
+std::string lubricant_text(const Lubricant& lub) {
+  std::string text =
+      fmt::format("{}, {}", viscosity_model_text(lub.viscosity), density_model_text(lub.density));
+  if (lub.viscosity == ViscosityModel::Roelands)
+    text += fmt::format(" (eta0 = {:.4g} Pa s, z = {:.4g})", lub.eta0_Pa_s, lub.roelands_z);
+  if (lub.ph_star_Pa > 0.0) text += fmt::format(", ph* = {:.4g} Pa", lub.ph_star_Pa);
+  return text;
+}
+
 nlohmann::json solver_settings_json(const SolverSettings& c) {
   return {{"cycle", cycle_type_text(c.cycle)},
           {"tolerance", c.tolerance},

@@ -13,6 +13,7 @@
 #include "reynolds/FaceMean.hpp"
 #include "reynolds/LineRelaxation.hpp"
 #include "reynolds/SolverSettings.hpp"
+#include "rheology/Lubricant.hpp"
 #include "rheology/Models.hpp"
 
 namespace ehlsim {
@@ -59,12 +60,9 @@ struct ImpactConfig : SolverSettings {
   double alpha_bar = 0.0;                ///< derived from M, L unless given
   std::optional<PhysicalCase> physical;  ///< set when a [physical] section was given
 
-  // [lubricant]
-  ViscosityModel viscosity = ViscosityModel::Barus;
-  DensityModel density = DensityModel::Incompressible;
-  double eta0_Pa_s = 0.0;   ///< Roelands: ambient viscosity
-  double roelands_z = 0.0;  ///< Roelands pressure-viscosity index
-  double ph_star_Pa = 0.0;  ///< reference Hertz pressure, for Roelands and Dowson-Higginson
+  // [lubricant]: the laws and their inputs; the solver's alpha_bar is the
+  // case's (Lubricant::with_alpha_bar).
+  Lubricant lubricant;
 
   // [body]
   bool elastic = true;

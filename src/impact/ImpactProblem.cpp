@@ -123,16 +123,6 @@ reynolds::OperatorSettings operator_settings(const ImpactConfig& c) {
   return op;
 }
 
-Lubricant make_lubricant(const ImpactConfig& c) {
-  Lubricant lub;
-  lub.viscosity = c.viscosity;
-  lub.density = c.density;
-  lub.alpha_bar = c.alpha_bar;
-  lub.eta0_Pa_s = c.eta0_Pa_s;
-  lub.roelands_z = c.roelands_z;
-  lub.ph_star_Pa = c.ph_star_Pa;
-  return lub;
-}
 }  // namespace
 
 struct ImpactProblem::Impl {
@@ -327,7 +317,7 @@ ImpactProblem::Impl::Impl(const ImpactConfig& config)
       grid(solver_grid(config)),
       dT(effective_time_step(config)),
       newmark(dT),
-      hierarchy(grid, make_lubricant(config), operator_settings(config),
+      hierarchy(grid, config.lubricant.with_alpha_bar(config.alpha_bar), operator_settings(config),
                 relaxation_for(config.relaxation), config),
       solver(&hierarchy.solver()),
       rhoH_now(grid),

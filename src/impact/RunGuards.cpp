@@ -100,8 +100,9 @@ namespace {
 /// 1.76 with other time steps.
 bool keeps_no_unconverged_step(const ImpactConfig& c) {
   // A Roelands law with z = 0 is isoviscous (it was told to use a smaller L).
-  const bool piezoviscous =
-      c.viscosity == ViscosityModel::Roelands ? c.roelands_z > 0.0 : c.alpha_bar > 0.0;
+  const bool piezoviscous = c.lubricant.viscosity == ViscosityModel::Roelands
+                                ? c.lubricant.roelands_z > 0.0
+                                : c.alpha_bar > 0.0;
   return !c.elastic && piezoviscous;
 }
 
@@ -216,7 +217,7 @@ void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
   // A film without a bounded pressure is blamed only where one may be missing:
   // a Roelands film, or a Barus film closer than the rigid estimate allows.
   const double estimate = c.alpha_bar * c.lambda_bar * c.V0 / 4.0;
-  const bool barus = c.viscosity == ViscosityModel::Barus;
+  const bool barus = c.lubricant.viscosity == ViscosityModel::Barus;
   if (!barus || c.Delta0 * c.Delta0 <= estimate) {
     const std::string why = barus
                                 ? fmt::format(

@@ -32,6 +32,15 @@ struct Lubricant {
   double roelands_z = 0.0;  ///< Roelands: pressure-viscosity index
   double ph_star_Pa = 0.0;  ///< Roelands and Dowson-Higginson: reference Hertz pressure [Pa]
 
+  /// This lubricant with the case's alpha_bar: a run's configuration holds
+  /// alpha_bar once, with M, L and lambda_bar ([case]), and a test or a sweep
+  /// that changes it there changes the solver's law.
+  [[nodiscard]] Lubricant with_alpha_bar(double case_alpha_bar) const {
+    Lubricant lub = *this;
+    lub.alpha_bar = case_alpha_bar;
+    return lub;
+  }
+
   /// eta/eta0 at dimensionless pressure P.  P < 0 (cavitated, should not be
   /// passed) counts as 0, so a slightly negative iterate cannot make eta < 1.
   [[nodiscard]] double eta_bar(double P) const { return std::exp(log_eta_bar(P)); }

@@ -189,12 +189,6 @@ reynolds::OperatorSettings operator_settings(const RollingConfig& c) {
   return op;
 }
 
-Lubricant lubricant_of(const RollingConfig& c) {
-  Lubricant lub = c.lubricant;
-  lub.alpha_bar = c.alpha_bar;
-  return lub;
-}
-
 /// The central film of the Nijenbanning-Venner-Moes formula in Hertz units;
 /// for rigid bodies the formula without its elastic terms (the full one puts
 /// H0 four times too high at M = 10, L = 0).
@@ -273,7 +267,8 @@ struct RollingProblem::Impl {
 RollingProblem::Impl::Impl(const RollingConfig& config)
     : cfg(config),
       grid(grid_of(config)),
-      hierarchy(grid, lubricant_of(config), operator_settings(config), config.relaxation, config),
+      hierarchy(grid, config.lubricant.with_alpha_bar(config.alpha_bar), operator_settings(config),
+                config.relaxation, config),
       solver(&hierarchy.solver()) {
   hierarchy.set_time_step(1.0, 0.0);  // steady: no squeeze term
 }
