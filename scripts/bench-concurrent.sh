@@ -5,11 +5,12 @@
 #
 #   bash scripts/bench-concurrent.sh [extra ehlsim arguments, e.g. --set grid.points=129]
 #
-# EHLSIM selects the binary (default ./build/apps/ehlsim).  OMP_NUM_THREADS is
+# EHLSIM selects the binary (default: build/apps/ehlsim of this checkout).  OMP_NUM_THREADS is
 # passed through; unset, each run chooses its own team (docs/usage.md, Threads).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-EHLSIM=${EHLSIM:-./build/apps/ehlsim}
+# The caller's paths (EHLSIM, files among the arguments) stay the caller's.
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+EHLSIM=${EHLSIM:-$REPO/build/apps/ehlsim}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 

@@ -18,7 +18,7 @@
 #   --keep DIR        keep the run directories under DIR (default: a temporary directory, removed)
 #   -h, --help        this text
 # Environment:
-#   EHLSIM            the binary (default ./build/apps/ehlsim; build it with scripts/build.sh).
+#   EHLSIM            the binary (default: build/apps/ehlsim of this checkout; scripts/build.sh).
 #                     It is copied once at the start, so a rebuild during the benchmark
 #                     cannot mix two versions.
 #   EHLSIM_REVISION   label for the source revision of that binary (default: this
@@ -32,7 +32,9 @@
 # threads that spin while waiting inflate both wall and CPU time; compare with
 # OMP_WAIT_POLICY=passive (docs/performance.md).
 set -euo pipefail
-cd "$(dirname "$0")/.."
+# Paths the caller gives (EHLSIM, --keep, files among the extra arguments) are
+# the caller's: the script does not change directory.
+REPO=$(cd "$(dirname "$0")/.." && pwd)
 
 PYTHON=/usr/bin/python3  # Debian's python3 (json, csv from the standard library)
 GRIDS="129 257 513"
@@ -56,7 +58,7 @@ while [ $# -gt 0 ]; do
 done
 
 EHLSIM_SET=${EHLSIM:-}
-EHLSIM=${EHLSIM:-./build/apps/ehlsim}
+EHLSIM=${EHLSIM:-$REPO/build/apps/ehlsim}
 if [ ! -x "$EHLSIM" ]; then
   echo "bench-impact: no ehlsim binary at '$EHLSIM' (run: bash scripts/build.sh)" >&2
   exit 2
@@ -79,8 +81,8 @@ BIN=$WORK/ehlsim
 
 cpu_model=$(lscpu 2>/dev/null | sed -n 's/^Model name:[[:space:]]*//p' | head -n 1)
 [ -n "$cpu_model" ] || cpu_model=$(sed -n 's/^model name[[:space:]]*:[[:space:]]*//p' /proc/cpuinfo | head -n 1)
-revision=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
-if [ -n "$(git status --porcelain --untracked-files=no -- src apps CMakeLists.txt 2>/dev/null)" ]; then
+revision=$(git -C "$REPO" rev-parse --short HEAD 2>/dev/null || echo unknown)
+if [ -n "$(git -C "$REPO" status --porcelain --untracked-files=no -- src apps CMakeLists.txt 2>/dev/null)" ]; then
   revision="$revision + uncommitted changes in src/ or apps/"
 fi
 if [ -n "${EHLSIM_REVISION:-}" ]; then
