@@ -169,6 +169,14 @@ TEST(RunGuards, AFilmAtTZeroIsStillConvergingOnlyBelowItsStart) {
       initial_failure({.force = 1e28, .residual = 4.6e27, .rate = 1e-3, .first_residual = 1.0});
   EXPECT_NE(overflowed.find("did not converge (residual 4.6e+27, force 1e+28)"), std::string::npos)
       << overflowed;
+  // Falling fast below a start that had already overflowed, with a force no
+  // impact can carry (M = 0.53, L = 21.2, Delta0 = 1.04 on 129^2: "raise
+  // solver.max_cycles" was the advice, and 80 cycles overflowed).
+  const std::string beyond_the_energy =
+      initial_failure({.force = 3e29, .residual = 8.2e29, .rate = 0.02, .first_residual = 1e31});
+  EXPECT_NE(beyond_the_energy.find("did not converge (residual 8.2e+29, force 3e+29)"),
+            std::string::npos)
+      << beyond_the_energy;
   // Not falling: no solution either.
   const std::string stalled =
       initial_failure({.force = 0.01, .residual = 1e-3, .rate = 0.95, .first_residual = 1.0});

@@ -115,8 +115,9 @@ inline constexpr double kStillConvergingRate = 0.75;
 
 /// Throws RunFailure when the film pressure at T = 0 is not a solution: not
 /// finite, or its residual above solver.tolerance.  The reason is the
-/// cycles when the residual was still falling (kStillConvergingRate), else
-/// a film too viscous for the start.
+/// cycles when the residual was still falling (kStillConvergingRate) below
+/// its start with a force within RunBounds::max_force, else a film too
+/// viscous for the start.
 void check_initial_state(const InitialSolve& s, const ImpactConfig& c);
 
 /// Throws RunFailure when `step` reached the cap of a run until lift-off.
