@@ -37,6 +37,12 @@ constexpr double kDryTimeStep = 1e-3;
 /// Most steps of the dry trajectory over one contact duration (a table of at
 /// most about 2^19 time levels, 12 MB, for any V0).
 constexpr double kMaxDryContactSteps = 1 << 18;
+/// The dry trajectory ends with the step after lift-off; its horizon, this
+/// many contact durations plus kDryHorizonMargin, only caps it.  The table
+/// starts less than one step before contact, so lift-off comes at one
+/// duration: the cap is never what ends it.
+constexpr double kDryHorizonDurations = 2.0;
+constexpr double kDryHorizonMargin = 1.0;
 
 /// values, padded: `pad` mirrored samples before (v[pad], ..., v[1]) and `pad`
 /// copies of the last sample after.
@@ -339,7 +345,7 @@ DryContactRadius::DryContactRadius(double Delta0, double V0) {
   const double dt = std::max(kDryTimeStep, duration / kMaxDryContactSteps);
   const double free_steps = std::floor(std::max(Delta0, 0.0) / (V0 * dt));
   const double T_start = free_steps * dt;
-  const double horizon = 2.0 * duration + 1.0;
+  const double horizon = kDryHorizonDurations * duration + kDryHorizonMargin;
   DryImpact dry = simulate_dry_hertz(Delta0 - V0 * T_start, V0, dt, horizon);
   T_ = std::move(dry.T);
   for (double& T : T_) T += T_start;

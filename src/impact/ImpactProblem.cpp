@@ -46,6 +46,10 @@ namespace {
 constexpr double kDivergenceFactor = 1e3;
 /// Each retry after the first halves the damping factor once more.
 constexpr double kFurtherRetryDamping = 0.5;
+/// A run to time.T_end ends with the step whose T is within this fraction of
+/// a step of it: T is a sum of steps (and halves of steps) in floating point,
+/// which can fall short of a T_end it should reach by a few roundings.
+constexpr double kEndTimeSlack = 1e-9;
 /// The attempt from which on a step brings the deformation up to date before
 /// each colour of a sweep (once per sweep before it: section 7 of
 /// docs/model.md): the second retry on.  The last retry only cost less on the
@@ -880,7 +884,7 @@ std::optional<RunOutcome> ImpactProblem::Impl::check_step_end(const StepRecord& 
         "solve it",
         time_step_text(record.step, record.T), record.residual, cfg.tolerance));
   if (run.had_pressure && record.dDelta_dT > 0.0 && record.p_max <= 0.0) return RunOutcome::LiftOff;
-  if (record.T >= cfg.T_end - 1e-9 * dT) return RunOutcome::TEnd;
+  if (record.T >= cfg.T_end - kEndTimeSlack * dT) return RunOutcome::TEnd;
   check_step_cap(record, cfg, dT);
   return std::nullopt;
 }

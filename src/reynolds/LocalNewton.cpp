@@ -86,6 +86,9 @@ struct FilmTerm {
   int i, j;
   double weight;
 };
+/// The most films a row holds: the point, its four neighbours and the
+/// transport stencil's taps upstream of the point.
+constexpr int kMaxFilmTerms = 1 + 4 + (kTransportTaps - 1);
 
 /// One row of the Jacobian (column-major matrix `J` of the window's size):
 /// d N(i, j) / d P(q) for every unknown q.  N holds P directly through the
@@ -104,8 +107,7 @@ void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIn
   const std::array<std::array<int, 2>, 4> neighbour{
       {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}}};
   const std::array<double, 4> face{faces.west, faces.east, faces.south, faces.north};
-  // At most the point, its four neighbours and two more taps upstream.
-  std::array<FilmTerm, 7> films{};
+  std::array<FilmTerm, kMaxFilmTerms> films{};
   int film_count = 0;
   const auto add_film = [&](int a, int b, double weight) {
     for (int k = 0; k < film_count; ++k) {
@@ -142,7 +144,7 @@ void add_jacobian_row(const ReynoldsOperator& op, const Field& P, const WindowIn
     add_film(i - t, j, -taps.weight[t] * op.density()(i - t, j));
   }
   if (!op.elastic()) return;
-  std::array<const double*, 7> slopes{};
+  std::array<const double*, kMaxFilmTerms> slopes{};
   for (int t = 0; t < film_count; ++t) slopes[t] = film_slopes.of(films[t].i, films[t].j);
   for (int q = 0; q < m; ++q) {
     double sum = 0.0;

@@ -11,6 +11,11 @@ namespace ehlsim {
 enum class CycleType { V, W };
 enum class DeformationMethod { Fft, Direct };
 
+/// The defaults: V(3,2) cycles down to 17^2 (docs/model.md, section 6; V(2,1),
+/// V(2,2), V(3,1) cost the same within the noise on 129^2, V(1,1) kept steps
+/// above the tolerance: docs/performance.md) and the stopping rule of
+/// section 8 (the tolerance and its error against runs converged to 1e-8:
+/// docs/validation.md, "The quadrant, and the physics did not move").
 struct SolverSettings {
   CycleType cycle = CycleType::V;
   double tolerance = 1e-5;  ///< on the pressure-scaled residual of the finest grid
