@@ -36,7 +36,7 @@ struct FasSettings {
   int pre_sweeps = 2;
   int post_sweeps = 1;
   /// Relaxations on the coarsest grid per visit (docs/model.md, section 6):
-  /// there a sweep costs a few hundred points, 1/230 of one on 257^2 (17^2).
+  /// cheap there, a sweep of 17^2 (289 points) being 1/230 of one of 257^2.
   int coarsest_sweeps = 10;
   int cycle_index = 1;  ///< 1: V cycle, 2: W cycle
   int fmg_cycles = 1;   ///< cycles per level in the full multigrid start
