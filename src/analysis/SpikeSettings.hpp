@@ -26,16 +26,22 @@ struct SpikeSettings {
   /// meshes wide on 257^2) and removes the direction-dependent discretization
   /// noise (docs/model.md, section 10).
   double cutoff_meshes = 3.0;
-  /// Spacing of the uniform R grid the filter works on, in mesh sizes.
+  /// Spacing of the uniform R grid the filter works on, in mesh sizes.  1/16
+  /// or 1/4 move R_s by at most 0.010 and 0.023 of a mesh (the default case's
+  /// snapshots on 257^2 and 513^2, `ehlsim spike RUN_DIR --set
+  /// spike.resample_meshes=...`), far below a mesh.
   double resample_meshes = 0.125;
   /// A local maximum counts as the spike only if it is at least this fraction
   /// of the largest filtered pressure (excludes ripples of the low-pressure
-  /// squeeze film outside the contact)...
+  /// squeeze film outside the contact)...  The weakest spike of the default
+  /// case's snapshots (T = 2.578, in the contact) is about half of it: 0.5
+  /// loses it on 257^2 (not on 513^2), 0.1 finds the same spikes as 0.25.
   double min_height = 0.25;
   /// ... and rises at least this fraction of the largest filtered pressure
   /// above the lowest point between it and the next higher point inward (or
   /// the centre): its inward prominence (excludes wiggles on the flank of the
-  /// central pressure dome).
+  /// central pressure dome).  0.05 loses the spike at T = 2.578 on 257^2 and
+  /// 513^2, 0.001 finds the same spikes as 0.01.
   double min_prominence = 0.01;
   /// A profile whose largest value is below this (in units of the Hertz
   /// pressure) has no spike: in the last steps before lift-off the pressure
