@@ -111,6 +111,8 @@ struct ImpactConfig : SolverSettings {
   bool use_symmetry = true;
 
   // [output]
+  /// 20: the spacing of the pressure profiles of the paper's figure 3 ("time
+  /// increments of 20 time steps"; Lubrecht & Venner 2022, section 4).
   int snapshot_every = 20;
   std::vector<double> snapshot_times;
   double snapshot_start = 0.0;  ///< the periodic snapshots begin at this time
