@@ -361,6 +361,8 @@ void forward_signal(std::map<pid_t, Case*>& running) {
 /// killed: a figure script that ignored SIGTERM kept the study waiting for as
 /// long as it ran.
 constexpr auto kSignalGrace = std::chrono::seconds(5);
+/// How often the study looks whether the child has ended meanwhile: short
+/// against kSignalGrace, long against a system call.
 constexpr auto kSignalPoll = std::chrono::milliseconds(50);
 
 /// Waits for the group leader `pid` (spawn_group_leader), passing a signal

@@ -40,6 +40,9 @@ constexpr std::uintmax_t kMiB = 1024 * 1024;
 /// (OpenMP's, idle) does not interrupt this thread's poll, and is seen after
 /// at most this long.
 constexpr int kWaitSliceMs = 100;
+/// Bytes read from the child's pipe at a time: its messages are a line or
+/// two, so one read (a page) takes them whole.
+constexpr std::size_t kPipeChunk = 4096;
 /// The child's exit codes.
 constexpr int kChildReturned = 0;
 constexpr int kChildThrew = 2;
@@ -122,7 +125,7 @@ Child start_child(const std::filesystem::path& path, std::string_view action,
 /// Reads what the child sent into `text`; true when the pipe hung up (the
 /// child has ended).
 bool read_available(int pipe, std::string& text) {
-  std::array<char, 4096> buffer{};
+  std::array<char, kPipeChunk> buffer{};
   const ssize_t got = read(pipe, buffer.data(), buffer.size());
   if (got > 0) text.append(buffer.data(), static_cast<std::size_t>(got));
   return got == 0 || (got < 0 && errno != EINTR && errno != EAGAIN);

@@ -45,7 +45,10 @@ constexpr std::string_view kStagingInfix = ".part-";
 constexpr mode_t kPermissionBits = 07777;
 constexpr std::string_view kOldInfix = ".old-";
 constexpr std::string_view kCheckpointSuffix = ".checkpoint.nc";
+/// gethostname's buffer: Linux's HOST_NAME_MAX is 64, POSIX allows up to 255.
 constexpr std::size_t kHostNameLength = 256;
+/// The lock file's text is lock_holder_text(): a pid, the host name and a
+/// time, at most about 120 characters with a host name of 64.
 constexpr std::size_t kLockTextLength = 512;
 /// Digits of a process id: Linux's pid_max is at most 2^22 (7 digits).
 constexpr std::size_t kLongestPidDigits = 7;

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numeric>
 #include <sstream>
 #include <string>
@@ -36,7 +37,7 @@ int machine_running() {
       stat >> count;
       return count;
     }
-    stat.ignore(1 << 16, '\n');
+    stat.ignore(std::numeric_limits<std::streamsize>::max(), '\n');  // the rest of the line
   }
   return -1;
 }
