@@ -475,8 +475,13 @@ class DctI {
   /// and so the bits, follow from this number.
   static constexpr int kPartialSums = 4;
   struct Sums {
-    double s[kPartialSums] = {0.0, 0.0, 0.0, 0.0};
-    [[nodiscard]] double total() const { return ((s[0] + s[1]) + s[2]) + s[3]; }
+    double s[kPartialSums] = {};
+    /// ((s[0] + s[1]) + s[2]) + s[3], in that order.
+    [[nodiscard]] double total() const {
+      double sum = s[0];
+      for (int k = 1; k < kPartialSums; ++k) sum += s[k];
+      return sum;
+    }
   };
 
   /// u_j of the vector in slot v for j in [j0, j1), and its share of Y_1,

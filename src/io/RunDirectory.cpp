@@ -457,9 +457,14 @@ struct stat attributes_of(const fs::path& source) {
   return st;
 }
 
+/// Gives `copy` the permission bits of the stat() result `source`.
+void set_permission_bits(const fs::path& copy, const struct stat& source) {
+  fs::permissions(copy, static_cast<fs::perms>(source.st_mode & kPermissionBits));
+}
+
 /// Gives the directory `copy` the permission bits of the directory `source`.
 void copy_directory_mode(const fs::path& source, const fs::path& copy) {
-  fs::permissions(copy, static_cast<fs::perms>(attributes_of(source).st_mode & kPermissionBits));
+  set_permission_bits(copy, attributes_of(source));
 }
 
 /// Gives `copy` the mode, owner and times of the directory `source`: an
@@ -472,7 +477,7 @@ void copy_directory_attributes(const fs::path& source, const fs::path& copy) {
     throw std::runtime_error(
         fmt::format("cannot set the owner of '{}': {}", copy.string(), system_message(errno)));
   }
-  fs::permissions(copy, static_cast<fs::perms>(st.st_mode & kPermissionBits));
+  set_permission_bits(copy, st);
   const std::array<timespec, 2> times = {st.st_atim, st.st_mtim};
   ::utimensat(AT_FDCWD, copy.c_str(), times.data(), 0);  // the times are a courtesy
 }
