@@ -16,6 +16,7 @@ PACKAGES=(
   nlohmann-json3-dev      # run.json
   libgtest-dev libgmock-dev libbenchmark-dev  # tests and benchmarks
   python3-matplotlib python3-numpy            # figures (Debian's own python3)
+  python3-xarray python3-netcdf4              # reading fields.nc in Python (README; the Xarray tests)
   clang-format            # the layout check of .ci/run
   paraview python3-paraview xvfb xauth  # the headless ParaView test of fields.nc (pvbatch under xvfb-run)
   clang libclang-rt-14-dev libomp-dev  # the libFuzzer targets of fuzz/ (clang, its sanitizer runtimes, OpenMP)
