@@ -19,7 +19,6 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/prctl.h>
@@ -52,6 +51,7 @@
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
+#include "io/ThreadBudget.hpp"
 
 extern char** environ;
 
@@ -513,14 +513,6 @@ int report_interruption(const std::vector<Case>& cases, const std::string& after
 }
 
 fs::path default_plot_script() { return fs::path(EHLSIM_SCRIPT_DIR) / "plot_study.py"; }
-
-/// The cores this process may run on: the most cases that can run side by side.
-int available_cores() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
-  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-}
 
 /// The keys the study sets in every case itself: a --set of one of them
 /// would be overridden, so it is refused rather than ignored.

@@ -587,6 +587,8 @@ int run(int argc, char** argv) {
     print_error(cli::parse_error_text(e, app, argc, argv));
     return kExitBadInput;
   }
+  // Before the first parallel region, where libgomp makes the team.
+  apply_user_thread_count();
   if (impact_cmd->parsed()) return run_impact(impact);
   if (spike_cmd->parsed()) return run_spike(spike);
   if (study_cmd->parsed()) return run_study(study);

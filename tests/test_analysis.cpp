@@ -203,6 +203,23 @@ TEST(SpikeAnalysis, MovingAverageWindow) {
   EXPECT_NEAR(a.position[150], 0.5 * (p.position[149] + p.position[150]), 1e-12);
 }
 
+// spike.max_window_meshes = 5e-324 times the mesh is 0: the run failed with
+// "moving_average: max_width must be > 0" (exit 1) for a legal input.
+TEST(SpikeAnalysis, AMovingAverageOfZeroWidthKeepsEverySample) {
+  Profile p;
+  for (int k = 0; k < 50; ++k) {
+    p.position.push_back(0.1 * k);
+    p.value.push_back(std::sin(0.3 * k));
+  }
+  const Profile a = moving_average(p, 20, 0.0);
+  ASSERT_EQ(a.size(), p.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {  // differences of prefix sums: to rounding
+    EXPECT_NEAR(a.position[k], p.position[k], 1e-14);
+    EXPECT_NEAR(a.value[k], p.value[k], 1e-14);
+  }
+  EXPECT_THROW((void)moving_average(p, 20, -1.0), std::invalid_argument);
+}
+
 TEST(SpikeAnalysis, FiltersPassHalfTheAmplitudeAtTheCutOff) {
   const double spacing = 0.01;
   const double cutoff = 0.2;

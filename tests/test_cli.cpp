@@ -2,7 +2,6 @@
 // --help / --version, and one tiny real run.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <sched.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -20,6 +19,7 @@
 #include <vector>
 
 #include "io/Checkpoint.hpp"
+#include "io/ThreadBudget.hpp"
 #include "support/CheckpointDamage.hpp"
 #include "support/MemoryGuardCheck.hpp"
 #include "support/MinimalRun.hpp"
@@ -31,6 +31,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using ehlsim::available_cores;
 using ehlsim::testing::ehlsim;
 using ehlsim::testing::library_crash;
 using ehlsim::testing::quote;
@@ -39,14 +40,6 @@ using ehlsim::testing::Result;
 using ehlsim::testing::source_dir;
 using ehlsim::testing::TempDir;
 using ehlsim::testing::write_file;
-
-/// The cores this process may run on (the bound of study --jobs).
-int available_cores() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof(set), &set) == 0) return CPU_COUNT(&set);
-  return static_cast<int>(std::thread::hardware_concurrency());
-}
 
 /// Bad input: exit code 2 and exactly `message` on one line of stderr.
 void expect_bad_input(const Result& r, const std::string& message) {
@@ -73,6 +66,21 @@ TEST(Cli, WrongType) {
                    "case.M = \"abc\": must be a number > 0 (--set)");
   expect_bad_input(ehlsim("impact --set body.elastic=1"),
                    "body.elastic = 1: must be true or false (--set)");
+}
+
+// A NUL in a TOML string or key ("\u0000") ended the line there: the
+// exception's what() is a C string.  Shown as the escape cli::printable uses.
+TEST(Cli, ANulInAValueOrKeyIsShownAndTheLineGoesOn) {
+  expect_bad_input(ehlsim("impact --set " + quote("case.M=\"x\\u0000y\"")),
+                   "case.M = \"x\\x00y\": must be a number > 0 (--set)");
+  expect_bad_input(ehlsim("rolling --set " + quote("case.M=\"x\\u0000y\"")),
+                   "case.M = \"x\\x00y\": must be a number > 0 (--set)");
+  TempDir dir;
+  const std::string f = write_file(dir / "case.toml", "[case]\n\"M\\u0000x\" = 3\n").string();
+  expect_bad_input(ehlsim("impact " + quote(f)),
+                   "unknown key 'case.M\\x00x' (known keys in [case]: M, L, lambda_bar, "
+                   "alpha_bar) (" +
+                       f + ":2:14)");
 }
 
 TEST(Cli, OutOfRange) {
@@ -376,6 +384,30 @@ TEST(Cli, RuntimeFailureIsExitOneWithOneLine) {
       quote((dir / "run").string()));
   EXPECT_EQ(short_steps.err.rfind("ehlsim: error: time step 5 (T = 5e-06): no lift-off", 0), 0u)
       << short_steps.err;
+}
+
+// OMP_NUM_THREADS=100000 crashed in libgomp's first parallel region (SIGSEGV,
+// a staging directory left); 1000 ran for minutes instead of seconds.  The
+// team is at most the cores.  A value libgomp ignores is bad input.
+TEST(Cli, OmpNumThreadsIsAtMostTheCoresAndAWholeNumber) {
+  TempDir dir;
+  const std::string out = quote((dir / "run").string());
+  const Result many =
+      ehlsim("impact --quiet --set grid.points=129 --set time.T_end=0.1 --out " + out,
+             "env OMP_NUM_THREADS=100000 ");
+  EXPECT_EQ(many.exit_code, 0) << many.err;
+  EXPECT_TRUE(fs::exists(dir / "run" / "run.json"));
+  for (const char* command : {"impact", "rolling"}) {
+    const Result bad =
+        ehlsim(std::string(command) + " --quiet --out " + out + "2", "env OMP_NUM_THREADS=abc ");
+    EXPECT_EQ(bad.exit_code, 2);
+    // libgomp's own warning may come first.
+    EXPECT_TRUE(bad.err.ends_with(
+        "ehlsim: error: OMP_NUM_THREADS = 'abc': must be a whole number of threads >= 1 (unset: "
+        "ehlsim chooses them from the cores that are free)\n"))
+        << bad.err;
+    EXPECT_FALSE(fs::exists(dir / "run2"));
+  }
 }
 
 TEST(Cli, VersionAndHelp) {

@@ -2116,6 +2116,29 @@ TEST(ThreadBudget, SamplesWithinTheSolveAtTZeroAndWithinAStep) {
   EXPECT_EQ(applied, 1);
 }
 
+// OMP_NUM_THREADS is the user's input: a team of at most the cores (100000
+// crashed libgomp), and a value libgomp ignores is refused.
+TEST(ThreadBudget, TheUsersThreadCountIsAWholeNumberOfAtMostTheCores) {
+  using ehlsim::user_thread_count;
+  EXPECT_EQ(user_thread_count("1", 2), 1);
+  EXPECT_EQ(user_thread_count(" 2 ", 2), 2);
+  EXPECT_EQ(user_thread_count("2,1", 4), 2);  // one per nesting level: the first
+  EXPECT_EQ(user_thread_count("100000", 2), 2);
+  EXPECT_EQ(user_thread_count("99999999999999999999999", 2), 2);
+  for (const char* bad : {"", " ", "0", "-1", "abc", "2.5", "+2", "2x", "-99999999999999999999"}) {
+    try {
+      (void)user_thread_count(bad, 2);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const ehlsim::ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                fmt::format("OMP_NUM_THREADS = '{}': must be a whole number of threads >= 1 "
+                            "(unset: ehlsim chooses them from the cores that are free)",
+                            bad));
+      EXPECT_EQ(e.key(), "OMP_NUM_THREADS");
+    }
+  }
+}
+
 TEST(ThreadBudget, ReadsThisMachine) {
   const RunnableTasks tasks = read_runnable_tasks();
   // This test's own thread is running while it reads.

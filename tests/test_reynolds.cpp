@@ -242,6 +242,18 @@ TEST(LineRelaxation, LeavesTheCavitatedRegionAtZero) {
 // the domain in the rebound): it must be the full stencil's value, for the
 // squeeze term of the impact and the upwind wedge of the rolling contact, with
 // every face mean.
+// With surface.waviness_wavelength = 1e-308 and no amplitude the wave number
+// overflowed and 0 cos(inf) made the gap NaN: the run failed at T = 0 with a
+// residual that was not finite.  No amplitude, no wave, whatever its length.
+TEST(Waviness, WithoutAnAmplitudeThereIsNoWaveWhateverItsLength) {
+  for (const double wavelength : {1e-308, 1.0, 1e308})
+    EXPECT_EQ((Waviness{0.0, wavelength, 30.0}.height(0.3, -0.7)), 0.0) << wavelength;
+  // A wave along X: crests at X = 0 and X = 0.5, a trough at X = 0.25.
+  const Waviness along_x{0.1, 0.5, 0.0};
+  EXPECT_DOUBLE_EQ(along_x.height(0.5, 0.9), 0.1);
+  EXPECT_DOUBLE_EQ(along_x.height(0.25, -0.4), -0.1);
+}
+
 TEST(ReynoldsOperator, ACavitatedNeighbourhoodGivesTheFullStencilsValue) {
   const Grid2D grid(33, 1.5);
   const ContactData d = contact_data(grid, 5, [](double, double) { return 1.0; });

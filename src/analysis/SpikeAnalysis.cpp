@@ -161,7 +161,9 @@ Profile axis_profile(const Grid2D& grid, std::span<const double> P) {
 
 Profile moving_average(const Profile& profile, int points, double max_width) {
   if (points < 1) throw std::invalid_argument("moving_average: points must be >= 1");
-  if (!(max_width > 0.0)) throw std::invalid_argument("moving_average: max_width must be > 0");
+  // 0 is the limit of narrow windows: one sample each.  spike.max_window_meshes
+  // may be any positive double, whose product with the mesh can round to 0.
+  if (!(max_width >= 0.0)) throw std::invalid_argument("moving_average: max_width must be >= 0");
   const std::size_t n = profile.size();
   const auto m = static_cast<std::size_t>(points);
   // Prefix sums: the mean of [lo, hi] in O(1).

@@ -57,7 +57,7 @@ class RadialOrder {
 /// unevenly spaced R).  Within points / 2 of either end the window shrinks to
 /// stay centred on its sample, so the first sample (R = 0) is kept as it is;
 /// and it is narrowed (about its sample) until it spans at most `max_width`
-/// in position.
+/// in position (0: every sample alone).
 [[nodiscard]] Profile moving_average(const Profile& profile, int points, double max_width);
 
 /// The profile by linear interpolation at 0, spacing, 2 spacing, ... up to its

@@ -23,8 +23,26 @@
 
 namespace ehlsim {
 
+namespace {
+/// `message` with each NUL byte written as the escape "\x00": what() is a C
+/// string, which would end at a NUL that a TOML value or key may hold ("\u0000"),
+/// and the line would lose the rest of its words.  cli::printable writes the
+/// other control characters in the same form.
+std::string with_nul_escaped(const std::string& message) {
+  std::string out;
+  out.reserve(message.size());
+  for (const char c : message) {
+    if (c == '\0')
+      out += "\\x00";
+    else
+      out += c;
+  }
+  return out;
+}
+}  // namespace
+
 ConfigError::ConfigError(const std::string& message, std::string key)
-    : std::runtime_error(message), key_(std::move(key)) {}
+    : std::runtime_error(with_nul_escaped(message)), key_(std::move(key)) {}
 
 std::string echo_input(std::string_view text) {
   if (text.size() <= kEchoMaxChars) return std::string(text);

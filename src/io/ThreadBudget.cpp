@@ -1,8 +1,11 @@
 #include "io/ThreadBudget.hpp"
 
+#include <fmt/format.h>
 #include <omp.h>
+#include <sched.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +14,9 @@
 #include <numeric>
 #include <sstream>
 #include <string>
+#include <thread>
+
+#include "config/ParameterSet.hpp"
 
 namespace ehlsim {
 
@@ -61,6 +67,41 @@ int own_running() {
 RunnableTasks read_runnable_tasks() { return {machine_running(), own_running()}; }
 
 bool user_set_thread_count() { return std::getenv("OMP_NUM_THREADS") != nullptr; }
+
+int available_cores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+int user_thread_count(std::string_view value, int cores) {
+  // OpenMP allows blanks around the number and a list, one per nesting level.
+  const std::string_view first = value.substr(0, value.find(','));
+  const std::size_t begin = first.find_first_not_of(" \t");
+  const std::size_t end = first.find_last_not_of(" \t");
+  const std::string_view digits =
+      begin == std::string_view::npos ? std::string_view() : first.substr(begin, end - begin + 1);
+  long long threads = 0;
+  const bool decimal =
+      !digits.empty() && digits.find_first_not_of("0123456789") == std::string_view::npos;
+  // Beyond the range of long long: a huge count, so the cores.
+  const bool huge =
+      decimal && std::from_chars(digits.data(), digits.data() + digits.size(), threads).ec ==
+                     std::errc::result_out_of_range;
+  if (!decimal || (!huge && threads < 1)) {
+    throw ConfigError(fmt::format("OMP_NUM_THREADS = '{}': must be a whole number of threads >= 1 "
+                                  "(unset: ehlsim chooses them from the cores that are free)",
+                                  echo_input(value)),
+                      "OMP_NUM_THREADS");
+  }
+  return huge ? cores : static_cast<int>(std::min<long long>(threads, cores));
+}
+
+void apply_user_thread_count() {
+  const char* value = std::getenv("OMP_NUM_THREADS");
+  if (value != nullptr) omp_set_num_threads(user_thread_count(value, available_cores()));
+}
 
 ThreadBudget::ThreadBudget(int cores, std::function<RunnableTasks()> sample,
                            std::function<void(int)> set_threads)

@@ -9,6 +9,7 @@
 // threads), so the team may change between any two steps.
 #include <deque>
 #include <functional>
+#include <string_view>
 
 #include "impact/ImpactObserver.hpp"
 
@@ -59,5 +60,19 @@ class ThreadBudget final : public ImpactObserver {
 /// True when the user fixed the thread count (OMP_NUM_THREADS set): then the
 /// budget is not applied.
 [[nodiscard]] bool user_set_thread_count();
+
+/// The cores this process may run on (its CPU affinity), at least 1.
+[[nodiscard]] int available_cores();
+
+/// The team size of OMP_NUM_THREADS (`value`; its first entry when it lists
+/// one per nesting level, "2,1"), at most `cores`: more threads than cores
+/// only wait for each other, and OMP_NUM_THREADS=100000 crashed libgomp in the
+/// first parallel region.  ConfigError naming the variable for a value that is
+/// not a whole number >= 1 (which libgomp ignores, with a warning).
+[[nodiscard]] int user_thread_count(std::string_view value, int cores);
+
+/// Applies OMP_NUM_THREADS, if set, through user_thread_count before the
+/// first parallel region.
+void apply_user_thread_count();
 
 }  // namespace ehlsim

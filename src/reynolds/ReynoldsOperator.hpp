@@ -90,6 +90,9 @@ struct Waviness {
   double angle_deg = 0.0;
   /// The height of the waviness at (x, y).
   [[nodiscard]] double height(double x, double y) const {
+    // No wave: also for a wavelength whose wave number overflows (1e-308),
+    // where 0 cos(inf) would be a NaN gap.
+    if (amplitude == 0.0) return 0.0;
     const double angle = angle_deg * std::numbers::pi / 180.0;
     const double kx = 2.0 * std::numbers::pi * std::cos(angle) / wavelength;
     const double ky = 2.0 * std::numbers::pi * std::sin(angle) / wavelength;
