@@ -201,6 +201,24 @@ TEST(RunGuards, OnlyASteadyFallOfFiniteResidualsIsStillConverging) {
   EXPECT_EQ(steady_fall_rate({1.0, 0.5, 0.25, 0.3, 0.1, 0.05, 0.02}), 1.0);
 }
 
+TEST(RunGuards, AResidualStallsAtRoundOffOnlyBelowItsFloor) {
+  // The floor of a pressure of 5.5e-3 (the default case at T = 0) on 33^2.
+  const double floor = round_off_residual(5.5e-3, 31 * 31);
+  EXPECT_NEAR(floor, kRoundOffUlps * 2.220446e-16 * 5.5e-3 / 31.0, 1e-24);
+  std::vector<double> level(kRoundOffCycles + 1, 0.1 * floor);
+  EXPECT_TRUE(stalled_at_round_off(level, floor));
+  // Fewer cycles than the window, or one of them above the floor: not yet.
+  EXPECT_FALSE(stalled_at_round_off({level.begin() + 1, level.end()}, floor));
+  level.front() = 2.0 * floor;
+  EXPECT_FALSE(stalled_at_round_off(level, floor));
+  // Still halving over the window: converging, whatever its level.
+  std::vector<double> falling{0.1 * floor};
+  for (int c = 0; c < kRoundOffCycles; ++c) falling.push_back(0.9 * falling.back());
+  EXPECT_FALSE(stalled_at_round_off(falling, floor));
+  // A stall above the floor is no round-off (M = 2, L = 20 on 129^2 sat at 1e-4).
+  EXPECT_FALSE(stalled_at_round_off(std::vector<double>(kRoundOffCycles + 1, 1e-4), floor));
+}
+
 TEST(RunGuards, AtRestWhenTooLittleEnergyIsLeftForARebound) {
   const ImpactConfig c;
   const RunBounds b = run_bounds(c, 0.05, 0.0);
@@ -281,6 +299,16 @@ TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {
   EXPECT_NE(tight.err.find("raise solver.max_cycles or solver.tolerance\n"), std::string::npos)
       << tight.err;
   EXPECT_EQ(tight.err.find("too viscous"), std::string::npos) << tight.err;
+  // Asked for less than round-off allows with cycles without a practical
+  // bound, it cycled for ever; it was told to raise solver.max_cycles with
+  // 10000.
+  const Result below_round_off =
+      map_run(dir, 33, "--set solver.tolerance=1e-300 --set solver.max_cycles=2000000000");
+  expect_failed_run(dir, below_round_off, "stopped converging at a residual of ");
+  EXPECT_TRUE(below_round_off.err.ends_with(
+      ", the round-off of its pressure (it fell by less than half in its last 10 cycles): "
+      "solver.tolerance = 1e-300 is below what it can reach; raise solver.tolerance\n"))
+      << below_round_off.err;
   // ... nor is a film given too few cycles to judge its fall (it was said to
   // be too viscous).
   const Result few = map_run(dir, 65, "--set case.M=20 --set case.L=20 --set solver.max_cycles=2");

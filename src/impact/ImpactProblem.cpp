@@ -19,6 +19,7 @@
 #include "dynamics/Bdf.hpp"
 #include "dynamics/Newmark.hpp"
 #include "grid/EdgeBand.hpp"
+#include "grid/FieldExtrema.hpp"
 #include "grid/NumberText.hpp"
 #include "impact/AttemptPolicy.hpp"
 #include "impact/PressurePredictor.hpp"
@@ -502,11 +503,17 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
   double force_before_cycle = std::numeric_limits<double>::infinity();
   const double tolerance = kInitialToleranceFactor * cfg.tolerance;
   std::vector<double> residuals;
+  bool at_round_off = false;
   for (int c = 1; c <= cfg.max_cycles; ++c) {
     const double force = fine.force(solver->solution());
     const double residual = solver->residual_norm();
     residuals.push_back(residual);
     if (residual < tolerance && force_has_settled(force, force_before_cycle)) break;
+    // A tolerance below round-off: no cycle gets nearer (1e-300 cycled for ever).
+    at_round_off = stalled_at_round_off(
+        residuals,
+        round_off_residual(interior_maximum(grid, solver->solution()).value, grid.full_interior()));
+    if (at_round_off) break;
     force_before_cycle = force;
     solver->cycle();
     if (cycle_observer) cycle_observer->on_initial_cycle(c, residual);
@@ -517,6 +524,7 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
   fine.update_coefficients(solver->solution());
   InitialSolve result{fine.force(solver->solution()), solver->residual_norm()};
   if (!residuals.empty()) result.first_residual = residuals.front();
+  result.at_round_off = at_round_off;
   residuals.push_back(result.residual);
   result.rate = steady_fall_rate(residuals);
   return result;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -199,9 +200,29 @@ double steady_fall_rate(const std::vector<double>& residuals) {
   return std::pow(residuals.back() / residuals[first], 1.0 / static_cast<double>(cycles));
 }
 
+double round_off_residual(double max_pressure, int points) {
+  const double n = static_cast<double>(points);
+  return kRoundOffUlps * std::numeric_limits<double>::epsilon() * max_pressure / std::sqrt(n);
+}
+
+bool stalled_at_round_off(const std::vector<double>& residuals, double floor) {
+  constexpr std::size_t kWindow = kRoundOffCycles + 1;
+  if (residuals.size() < kWindow) return false;
+  const auto window = std::span(residuals).last(kWindow);
+  const bool below = std::ranges::all_of(window, [&](double r) { return r < floor; });
+  return below && !(window.back() < 0.5 * window.front());
+}
+
 void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
   const double force = s.force, residual = s.residual;
   if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;
+  if (s.at_round_off) {
+    throw RunFailure(fmt::format(
+        "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} stopped converging at a "
+        "residual of {:.3g}, the round-off of its pressure (it fell by less than half in its last "
+        "{} cycles): solver.tolerance = {:g} is below what it can reach; raise solver.tolerance",
+        c.Delta0, residual, kRoundOffCycles, c.tolerance));
+  }
   // Falling, below its start, and with a force the impact's energy can hold:
   // a start that overflowed falls fast from far above any film (M = 0.53,
   // L = 21.2, Delta0 = 1.04 on 129^2: residual 8e29 falling by 0.02 per

@@ -89,9 +89,27 @@ struct InitialSolve {
   double rate = 1.0;
   /// The residual of the full multigrid start, before the first cycle.
   double first_residual = std::numeric_limits<double>::infinity();
+  /// It stopped at round-off (stalled_at_round_off) before solver.max_cycles.
+  bool at_round_off = false;
 };
 /// The last cycles of the solve at T = 0 over which InitialSolve::rate is taken.
 inline constexpr int kInitialRateCycles = 5;
+
+/// The pressure-scaled residual measure (ReynoldsOperator::pressure_scaled_norm:
+/// the RMS of residual / diagonal over `points` interior points, over
+/// sqrt(points)) that round-off in a pressure of magnitude `max_pressure`
+/// leaves: kRoundOffUlps units in the last place of it at every point.
+/// solver.tolerance = 1e-300 on 33^2 cycled for ever at T = 0 with the
+/// measure at 2e-19, 5 eps max|P| / sqrt(points), and was told to raise
+/// solver.max_cycles.
+[[nodiscard]] double round_off_residual(double max_pressure, int points);
+inline constexpr double kRoundOffUlps = 100.0;
+/// A solve at T = 0 whose residual is below round_off_residual and fell by
+/// less than half over this many cycles stops there (at_round_off).
+inline constexpr int kRoundOffCycles = 10;
+/// Whether the last kRoundOffCycles + 1 `residuals` lie below `floor` and fell
+/// by less than half.
+[[nodiscard]] bool stalled_at_round_off(const std::vector<double>& residuals, double floor);
 /// A solve at T = 0 whose residual still fell this fast, and is below the
 /// residual it started from, ran out of cycles, and did not stall.  (M = 0.01
 /// on 33^2 overflows: its residual fell from far above its start to 4.6e27 in
