@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cstdio>
 #include <limits>
+#include <new>
 #include <string>
 #include <utility>
 #include <vector>
@@ -54,6 +55,15 @@ void print_error(std::string_view message) {
   // Control characters as escapes: an ESC of an argument reached the terminal,
   // and a newline in a path read as a space named another file ('cfg .toml').
   std::fprintf(stderr, "ehlsim: error: %s\n", printable(line).c_str());
+}
+
+std::string failure_reason(const std::exception& e) {
+  if (dynamic_cast<const std::bad_alloc*>(&e) == nullptr) return e.what();
+  // The memory guard knows the machine's available memory and
+  // solver.memory_limit_mb, not a limit of the process (io/MemoryGuard.hpp).
+  return "out of memory (std::bad_alloc): this process may not allocate more, by a limit of its "
+         "own (ulimit -v, a memory cgroup) or the machine's; use fewer grid.points, or raise the "
+         "limit";
 }
 
 void print_warnings(const std::vector<std::string>& warnings) {

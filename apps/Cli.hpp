@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -58,6 +59,11 @@ void print_out(fmt::format_string<Args...> format, Args&&... args) {
 /// path (a runaway value that reached the message unshortened, e.g. through
 /// CLI11) are shortened like echo_input (config/Parameters.hpp) does.
 void print_error(std::string_view message);
+
+/// What failed, for the one line of a failed command: `e.what()`, except for
+/// an allocation that failed, whose what() is only "std::bad_alloc" (257^2
+/// under `ulimit -v 100000` said so after step 80).
+[[nodiscard]] std::string failure_reason(const std::exception& e);
 
 /// "ehlsim: warning: <line>" on stderr for each of `warnings` (what a finished
 /// run's user should know about its result), after what stdout holds so far,

@@ -422,7 +422,7 @@ int report_failure(const ImpactOptions& options, const KeptCheckpoint& kept, con
   // A failure of the solution names its step and repeats, bit for bit, from
   // the checkpoint unless a setting changes; one of the disk does neither.
   const bool repeats = dynamic_cast<const RunFailure*>(&e) != nullptr;
-  std::string what = (repeats ? std::string() : last.where()) + e.what();
+  std::string what = (repeats ? std::string() : last.where()) + cli::failure_reason(e);
   // A signal that came while the failing write was under way (a full disk)
   // did not end the run, but was sent: the line says it was seen.
   if (const int signal = InterruptGuard::received(); signal != 0)
@@ -615,7 +615,7 @@ int run_reporting_errors(int argc, char** argv) {
     print_error(e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {
-    print_error(e.what());
+    print_error(cli::failure_reason(e));
     return kExitFailure;
   } catch (...) {
     print_error("unknown failure");

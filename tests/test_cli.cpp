@@ -410,6 +410,28 @@ TEST(Cli, OmpNumThreadsIsAtMostTheCoresAndAWholeNumber) {
   }
 }
 
+// Under a limit of the process that the memory guard does not see, a run
+// that runs out of memory said only "std::bad_alloc".  (A sanitizer's
+// runtime reserves terabytes of address space: it cannot start under ulimit -v.)
+TEST(Cli, RunningOutOfMemorySaysSo) {
+#ifdef EHLSIM_SANITIZED_BUILD
+  GTEST_SKIP() << "ulimit -v leaves a sanitizer no room to start";
+#endif
+  TempDir dir;
+  const std::string reason =
+      "out of memory (std::bad_alloc): this process may not allocate more, by a limit of its own "
+      "(ulimit -v, a memory cgroup) or the machine's; use fewer grid.points, or raise the limit\n";
+  const std::string limited = "bash -c 'ulimit -v 100000; exec \"$0\" \"$@\"' ";
+  for (const char* command : {"impact --set grid.points=257", "rolling --set grid.points=513"}) {
+    const Result r =
+        ehlsim(std::string(command) + " --quiet --out " + quote((dir / "run").string()), limited);
+    EXPECT_EQ(r.exit_code, 1) << command;
+    EXPECT_TRUE(r.err.starts_with("ehlsim: error: ") && r.err.ends_with(reason)) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_TRUE(fs::is_empty(dir.path())) << "left: " << fs::directory_iterator(dir.path())->path();
+  }
+}
+
 TEST(Cli, VersionAndHelp) {
   const Result version = ehlsim("--version");
   EXPECT_EQ(version.exit_code, 0);
