@@ -309,6 +309,15 @@ TEST(CaseMap, AFilmAtTZeroThatOnlyMeetsTheToleranceIsNoSolution) {
       ", the round-off of its pressure (it fell by less than half in its last 10 cycles): "
       "solver.tolerance = 1e-300 is below what it can reach; raise solver.tolerance\n"))
       << below_round_off.err;
+  // A tolerance the start meets and the steps cannot: with 1e-16 on 33^2 each
+  // step spent all its attempts and halvings at round-off (29 steps in 300 s).
+  const Result steps_below_round_off =
+      map_run(dir, 33, "--set solver.tolerance=1e-16 --set solver.max_cycles=60");
+  expect_failed_run(dir, steps_below_round_off, "the film pressure stopped converging at a ");
+  EXPECT_TRUE(steps_below_round_off.err.ends_with(
+      "solver.tolerance = 1e-16 is below what it can reach; raise solver.tolerance\n"))
+      << steps_below_round_off.err;
+  EXPECT_EQ(steps_below_round_off.err.find("time step 0 "), std::string::npos);
   // ... nor is a film given too few cycles to judge its fall (it was said to
   // be too viscous).
   const Result few = map_run(dir, 65, "--set case.M=20 --set case.L=20 --set solver.max_cycles=2");

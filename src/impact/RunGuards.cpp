@@ -213,15 +213,20 @@ bool stalled_at_round_off(const std::vector<double>& residuals, double floor) {
   return below && !(window.back() < 0.5 * window.front());
 }
 
+std::string round_off_text(double residual, double tolerance) {
+  return fmt::format(
+      "stopped converging at a residual of {:.3g}, the round-off of its pressure (it fell by less "
+      "than half in its last {} cycles): solver.tolerance = {:g} is below what it can reach; "
+      "raise solver.tolerance",
+      residual, kRoundOffCycles, tolerance);
+}
+
 void check_initial_state(const InitialSolve& s, const ImpactConfig& c) {
   const double force = s.force, residual = s.residual;
   if (std::isfinite(force) && std::isfinite(residual) && residual <= c.tolerance) return;
   if (s.at_round_off) {
-    throw RunFailure(fmt::format(
-        "time step 0 (T = 0): the film pressure at time.Delta0 = {:g} stopped converging at a "
-        "residual of {:.3g}, the round-off of its pressure (it fell by less than half in its last "
-        "{} cycles): solver.tolerance = {:g} is below what it can reach; raise solver.tolerance",
-        c.Delta0, residual, kRoundOffCycles, c.tolerance));
+    throw RunFailure(fmt::format("time step 0 (T = 0): the film pressure at time.Delta0 = {:g} {}",
+                                 c.Delta0, round_off_text(residual, c.tolerance)));
   }
   // Falling, below its start, and with a force the impact's energy can hold:
   // a start that overflowed falls fast from far above any film (M = 0.53,

@@ -110,6 +110,9 @@ inline constexpr int kRoundOffCycles = 10;
 /// Whether the last kRoundOffCycles + 1 `residuals` lie below `floor` and fell
 /// by less than half.
 [[nodiscard]] bool stalled_at_round_off(const std::vector<double>& residuals, double floor);
+/// What a solve that stalled at round-off with `residual` above `tolerance`
+/// says after "the film pressure ...".
+[[nodiscard]] std::string round_off_text(double residual, double tolerance);
 /// A solve at T = 0 whose residual still fell this fast, and is below the
 /// residual it started from, ran out of cycles, and did not stall.  (M = 0.01
 /// on 33^2 overflows: its residual fell from far above its start to 4.6e27 in
