@@ -358,13 +358,18 @@ std::vector<std::string> contents(const fs::path& dir) {
   return files;
 }
 
-/// `ehlsim <args>` under `ulimit -f kib` (files beyond it fail with EFBIG).
-Result with_file_size_limit(int kib, const std::string& args) {
+/// `ehlsim <args>` under `ulimit <limit>`: "-f KIB" (files beyond it fail
+/// with EFBIG), "-n N" (no file descriptor from N on: EMFILE).  The streams
+/// are redirected before the limit (dash moves a redirected file to a
+/// descriptor of 10 or more first, which "-n 4" refuses), and descriptors
+/// 3 to 9 that the test inherited are closed (ctest leaves one open): ehlsim
+/// gets 0, 1 and 2 only, as from a shell.
+Result with_ulimit(const std::string& limit, const std::string& args) {
   const TempDir capture("limit");
-  const std::string command = "ulimit -f " + std::to_string(kib) + "; exec " +
-                              quote(ehlsim_binary()) + " " + args + " > " +
-                              quote((capture / "out").string()) + " 2> " +
-                              quote((capture / "err").string()) + " < /dev/null";
+  const std::string command = "exec > " + quote((capture / "out").string()) + " 2> " +
+                              quote((capture / "err").string()) +
+                              " < /dev/null 3>&- 4>&- 5>&- 6>&- 7>&- 8>&- 9>&-; ulimit " + limit +
+                              "; exec " + quote(ehlsim_binary()) + " " + args;
   const int status = std::system(("sh -c " + quote(command)).c_str());
   Result r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -381,9 +386,10 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
   ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
   const std::vector<std::string> before = contents(run);
   constexpr int kFileLimitKiB = 16;  // below the size of one 65^2 snapshot file
-  const Result r = with_file_size_limit(
-      kFileLimitKiB, "impact --quiet --set grid.points=65 --set output.snapshot_every=1 --out " +
-                         quote(run.string()));
+  const Result r =
+      with_ulimit("-f " + std::to_string(kFileLimitKiB),
+                  "impact --quiet --set grid.points=65 --set output.snapshot_every=1 --out " +
+                      quote(run.string()));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_TRUE(r.err.starts_with("ehlsim: error: before the first time step: cannot write '"))
@@ -391,6 +397,25 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
   EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
   EXPECT_EQ(contents(run), before);
   EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"});
+}
+
+/// Out of file descriptors (ulimit -n), every command fails with exit 1 and
+/// leaves no staging directory.  With 4 the lock holds the last descriptor:
+/// the removal of the staging directory needed descriptors, and it stayed.
+TEST(Lifecycle, OutOfFileDescriptorsIsAFailureThatLeavesNothing) {
+  TempDir work;
+  const std::vector<std::string> commands = {
+      "impact " + kTiny + "--out " + quote((work / "impact").string()),
+      "rolling --quiet --set grid.points=33 --out " + quote((work / "rolling").string())};
+  for (const int limit : {4, 5, 6}) {
+    for (const std::string& command : commands) {
+      const Result r = with_ulimit("-n " + std::to_string(limit), command);
+      EXPECT_EQ(r.exit_code, 1) << limit << " " << command << "\n" << r.err;
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+      EXPECT_NE(r.err.find(": Too many open files"), std::string::npos) << r.err;
+    }
+    EXPECT_TRUE(fs::is_empty(work.path())) << limit;
+  }
 }
 
 /// A tmpfs of a few hundred kB (read-only with MS_RDONLY), unmounted at the

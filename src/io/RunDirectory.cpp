@@ -319,44 +319,45 @@ dev_t device_of_parent(const fs::path& path) {
 /// level: a tree deeper than this keeps what lies below it.
 constexpr int kMaxRemovalDepth = 256;
 
-/// The names in the directory `dir_fd`, but "." and "..".
-std::vector<std::string> names_in(int dir_fd) {
+/// The names in the open directory `dir`, but "." and "..".
+std::vector<std::string> names_in(DIR* dir) {
   std::vector<std::string> names;
-  const int listing = ::dup(dir_fd);
-  DIR* dir = listing < 0 ? nullptr : ::fdopendir(listing);
-  if (dir == nullptr) {
-    if (listing >= 0) ::close(listing);
-    return names;
-  }
   while (const dirent* entry = ::readdir(dir)) {
     const std::string_view name = entry->d_name;
     if (name != "." && name != "..") names.emplace_back(name);
   }
-  ::closedir(dir);
   return names;
 }
 
-/// remove_within_mount below the directory `dir_fd`, on the device `device`.
-/// Relative to descriptors, not paths: a leftover tree deeper than PATH_MAX
-/// (lstat of its full paths said "File name too long") goes as well.
+/// remove_within_mount below the directory `dir_fd`, on the device `device`;
+/// closes `dir_fd`.  Relative to descriptors, not paths: a leftover tree
+/// deeper than PATH_MAX (lstat of its full paths said "File name too long")
+/// goes as well.  One descriptor per level, none more: out of descriptors
+/// (ulimit -n), a second one for the listing failed, and the staging
+/// directory stayed.
 void remove_entries_within_mount(int dir_fd, dev_t device, int depth) noexcept {
-  for (const std::string& name : names_in(dir_fd)) {
+  DIR* dir = ::fdopendir(dir_fd);
+  if (dir == nullptr) {
+    ::close(dir_fd);
+    return;
+  }
+  const int at = ::dirfd(dir);
+  for (const std::string& name : names_in(dir)) {
     struct stat st {};
-    if (::fstatat(dir_fd, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
-    if (!S_ISLNK(st.st_mode) && is_mount_point_at(dir_fd, name.c_str(), device))
+    if (::fstatat(at, name.c_str(), &st, AT_SYMLINK_NOFOLLOW) != 0) continue;
+    if (!S_ISLNK(st.st_mode) && is_mount_point_at(at, name.c_str(), device))
       continue;  // and its parents stay
     if (!S_ISDIR(st.st_mode)) {
-      ::unlinkat(dir_fd, name.c_str(), 0);
+      ::unlinkat(at, name.c_str(), 0);
       continue;
     }
     if (depth >= kMaxRemovalDepth) continue;
-    const int child =
-        ::openat(dir_fd, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    const int child = ::openat(at, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     if (child < 0) continue;
     remove_entries_within_mount(child, device, depth + 1);
-    ::close(child);
-    ::unlinkat(dir_fd, name.c_str(), AT_REMOVEDIR);
+    ::unlinkat(at, name.c_str(), AT_REMOVEDIR);
   }
+  ::closedir(dir);
 }
 }  // namespace
 
@@ -370,8 +371,7 @@ void remove_within_mount(const fs::path& path) noexcept {
   if (is_mount_point(path, device_of_parent(path))) return;
   const int dir = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
   if (dir < 0) return;
-  remove_entries_within_mount(dir, st.st_dev, 0);
-  ::close(dir);
+  remove_entries_within_mount(dir, st.st_dev, 0);  // closes dir
   ::rmdir(path.c_str());
 }
 
@@ -727,10 +727,13 @@ PathLock::PathLock(const fs::path& target, const fs::path& shown)
   if (ftruncate(fd_, 0) == 0) (void)!pwrite(fd_, text.data(), text.size(), 0);
 }
 
-PathLock::~PathLock() {
+PathLock::~PathLock() { release(); }
+
+void PathLock::release() noexcept {
   if (fd_ < 0) return;
   unlink(path_.c_str());  // while still locked: see the stat check above
   close(fd_);
+  fd_ = -1;
 }
 
 ConfigError link_loop_error(const fs::path& shown) {
@@ -806,6 +809,12 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
 RunDirectory::~RunDirectory() {
   if (published_) return;
   remove_within_mount(staging_);  // noexcept: nothing to report from a destructor
+  // Out of descriptors (ulimit -n), the lock's may be the last this process
+  // may have: the removal could not open the staging directory, and it stayed.
+  if (std::error_code ec; fs::exists(fs::symlink_status(staging_, ec))) {
+    lock_.release();
+    remove_within_mount(staging_);
+  }
 }
 
 fs::path RunDirectory::checkpoint() const {

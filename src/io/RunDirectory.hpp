@@ -50,6 +50,9 @@ class PathLock {
   PathLock& operator=(const PathLock&) = delete;
 
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  /// Removes the lock file and unlocks now (the destructor's work), freeing
+  /// its file descriptor.
+  void release() noexcept;
 
  private:
   std::filesystem::path path_;
