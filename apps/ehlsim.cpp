@@ -54,6 +54,7 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
+#include "io/SystemFailure.hpp"
 #include "io/ThreadBudget.hpp"
 
 namespace {
@@ -363,6 +364,8 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
                  signal_name(e.signal).c_str(), cli::printable(options.restart_file).c_str(),
                  cli::printable(options.out_dir).c_str());
     return exit_code_for_signal(e.signal);
+  } catch (const SystemFailure&) {
+    throw;  // exit 1: "pipe: Too many open files" is no damaged checkpoint
   } catch (const std::runtime_error& e) {
     print_error(e.what());  // names the file, and the field of a damaged one
     return kExitBadInput;

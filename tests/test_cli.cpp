@@ -7,8 +7,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -830,6 +832,30 @@ TEST(Cli, SpikeOnABadRunDirectory) {
                    "cannot analyse '" + (rolling / "run.json").string() +
                        "': a run of `ehlsim rolling`; ehlsim spike analyses runs of `ehlsim "
                        "impact`");
+}
+
+TEST(Cli, SpikeSaysWhyRunJsonCannotBeRead) {
+  // Every failure to open run.json was "not a complete ehlsim run directory".
+  // A missing permission is the user's input too (exit 2), said as such.
+  // Root reads anything, so as root the analysis runs as the user nobody.
+  TempDir dir;
+  const fs::path run = dir / "run";
+  ASSERT_EQ(tiny_run(run, "--set time.T_end=0.2").exit_code, 0);
+  std::string launcher;
+  if (geteuid() == 0) {
+    constexpr uid_t kNobody = 65534;  // Debian's user and group nobody
+    for (const fs::path& path : {dir.path(), run, run / "run.json"})
+      ASSERT_EQ(::chown(path.c_str(), kNobody, kNobody), 0) << std::strerror(errno);
+    launcher = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+    if (ehlsim("--version", launcher).exit_code != 0)
+      GTEST_SKIP() << "the user nobody cannot run this build's ehlsim";
+  }
+  fs::permissions(run / "run.json", fs::perms::none);
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string()), launcher),
+                   "cannot read '" + (run / "run.json").string() + "': Permission denied");
+  EXPECT_FALSE(fs::exists(run / "spike_snapshots.csv"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1)
+      << "no staging directory or lock left beside the run";
 }
 
 TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {

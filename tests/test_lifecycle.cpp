@@ -402,19 +402,39 @@ TEST(Lifecycle, AWriteErrorLeavesTheEarlierRunIntact) {
 /// Out of file descriptors (ulimit -n), every command fails with exit 1 and
 /// leaves no staging directory.  With 4 the lock holds the last descriptor:
 /// the removal of the staging directory needed descriptors, and it stayed.
+/// It is the machine's failure also where the input is read: `ehlsim spike`
+/// said "not a complete ehlsim run directory" of run.json (exit 2), and the
+/// pipe to the child that reads fields.nc or a checkpoint first (ulimit -n
+/// 5) failed with exit 2 as if the file were bad.
 TEST(Lifecycle, OutOfFileDescriptorsIsAFailureThatLeavesNothing) {
   TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3 --set output.checkpoint_every=2").exit_code, 0);
+  const std::vector<std::string> before = contents(run);
+  const fs::path checkpoint = run / "checkpoint.nc";
   const std::vector<std::string> commands = {
+      "spike --quiet " + quote(run.string()) + " --out " + quote((work / "spike").string()),
       "impact " + kTiny + "--out " + quote((work / "impact").string()),
+      "impact " + kTiny + "--set time.T_end=0.5 --restart " + quote(checkpoint.string()) +
+          " --out " + quote((work / "restart").string()),
       "rolling --quiet --set grid.points=33 --out " + quote((work / "rolling").string())};
+  std::set<std::string> errors;
   for (const int limit : {4, 5, 6}) {
     for (const std::string& command : commands) {
       const Result r = with_ulimit("-n " + std::to_string(limit), command);
       EXPECT_EQ(r.exit_code, 1) << limit << " " << command << "\n" << r.err;
       EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
       EXPECT_NE(r.err.find(": Too many open files"), std::string::npos) << r.err;
+      errors.insert(r.err);
     }
-    EXPECT_TRUE(fs::is_empty(work.path())) << limit;
+    EXPECT_EQ(names_in(work.path()), std::set<std::string>{"run"}) << limit;
+  }
+  EXPECT_EQ(contents(run), before);
+  for (const std::string& input :
+       {"'" + (run / "run.json").string() + "': ", "'" + (run / "fields.nc").string() + "': pipe: ",
+        "checkpoint '" + checkpoint.string() + "': pipe: "}) {
+    const std::string error = "ehlsim: error: cannot read " + input + "Too many open files\n";
+    EXPECT_TRUE(errors.contains(error)) << error;
   }
 }
 

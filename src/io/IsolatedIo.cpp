@@ -20,6 +20,7 @@
 
 #include "io/Interrupt.hpp"
 #include "io/NetcdfStatus.hpp"
+#include "io/SystemFailure.hpp"
 
 namespace ehlsim {
 
@@ -103,8 +104,9 @@ Child start_child(const std::filesystem::path& path, std::string_view action,
                   const std::function<void()>& task) {
   std::array<int, 2> pipe_ends{};
   const pid_t parent = getpid();
+  // Out of descriptors or processes: the machine's failure, not the file's.
   if (pipe2(pipe_ends.data(), O_CLOEXEC) != 0) {
-    throw std::runtime_error(
+    throw SystemFailure(
         fmt::format("cannot {} '{}': pipe: {}", action, path.string(), std::strerror(errno)));
   }
   const pid_t pid = fork();
@@ -116,8 +118,8 @@ Child start_child(const std::filesystem::path& path, std::string_view action,
   close(pipe_ends[1]);
   if (pid < 0) {
     close(pipe_ends[0]);
-    throw std::runtime_error(fmt::format("cannot {} '{}': fork (to do it in a child process): {}",
-                                         action, path.string(), std::strerror(fork_error)));
+    throw SystemFailure(fmt::format("cannot {} '{}': fork (to do it in a child process): {}",
+                                    action, path.string(), std::strerror(fork_error)));
   }
   return {pid, pipe_ends[0]};
 }

@@ -52,8 +52,9 @@ struct ChildWait {
 /// output (stdout and stderr go to /dev/null), dies with this process, and
 /// ends with _exit: no exit handler (HDF5's closes every open file) runs
 /// there.  `task` must not use OpenMP: the child has none of the parent's
-/// threads.  Throws std::runtime_error "cannot <action> '<path>': fork ...:
-/// <reason>" when the child cannot be started.
+/// threads.  Throws SystemFailure (io/SystemFailure.hpp) "cannot <action>
+/// '<path>': fork ...: <reason>" (or "pipe: ...") when the child cannot be
+/// started.
 [[nodiscard]] ChildOutcome run_in_child(const std::filesystem::path& path, std::string_view action,
                                         const std::function<void()>& task, const ChildWait& wait);
 

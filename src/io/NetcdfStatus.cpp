@@ -13,6 +13,8 @@
 #include <system_error>
 #include <vector>
 
+#include "io/SystemFailure.hpp"
+
 namespace ehlsim {
 
 std::string netcdf_path(const std::filesystem::path& path) {
@@ -25,10 +27,12 @@ std::string netcdf_path(const std::filesystem::path& path) {
 
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,
                   std::string_view what) {
-  if (status != NC_NOERR) {
-    throw std::runtime_error(
-        fmt::format("cannot {} '{}': {}: {}", action, path.string(), what, nc_strerror(status)));
-  }
+  if (status == NC_NOERR) return;
+  const std::string message =
+      fmt::format("cannot {} '{}': {}: {}", action, path.string(), what, nc_strerror(status));
+  // A system error number passed on by NetCDF: EMFILE is no damaged file.
+  if (status > 0 && is_system_failure(status)) throw SystemFailure(message);
+  throw std::runtime_error(message);
 }
 
 void check_netcdf_write(int status, std::string_view action, const std::filesystem::path& path,

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,7 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
+#include "io/SystemFailure.hpp"
 
 namespace ehlsim {
 
@@ -31,14 +33,20 @@ nlohmann::json read_run_json(const std::filesystem::path& path) {
   // and a directory failed in the parser with no path named.
   std::error_code ec;
   const bool regular = std::filesystem::is_regular_file(path, ec);
-  std::ifstream in;
-  if (regular) in.open(path);
-  if (!regular || !in) {
+  const bool missing =
+      ec == std::errc::no_such_file_or_directory || ec == std::errc::not_a_directory;
+  if (!regular && (!ec || missing)) {
     throw ConfigError(
         fmt::format("cannot read '{}': not a complete ehlsim run directory (run.json "
                     "is written last, when the run has finished)",
                     path.string()));
   }
+  // Any other failure says why: every one was "not a complete ehlsim run
+  // directory", a missing permission (exit 2) and EMFILE (exit 1) alike.
+  if (ec) throw_unreadable_input(path, ec.value());
+  errno = 0;
+  std::ifstream in(path);  // libstdc++ opens with fopen, which sets errno
+  if (!in) throw_unreadable_input(path, errno != 0 ? errno : EIO);
   return parse_range_checked_json(in, path.string());
 }
 
@@ -145,14 +153,17 @@ double recorded_waviness(const nlohmann::json& run) {
 
 /// Opens the fields.nc of a run, read in a child process first (a file HDF5
 /// crashes or hangs on is named like any other damaged one).  Throws
-/// ConfigError for a file that cannot be read, RunInterrupted for a signal
-/// during the child's read (the analysis has not started).
+/// ConfigError for a file that cannot be read, SystemFailure where the
+/// machine failed (no descriptor for the child's pipe), RunInterrupted for a
+/// signal during the child's read (the analysis has not started).
 std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   try {
     pre_read_fields_in_child(path);
     return std::make_unique<FieldReader>(path);
   } catch (const PreReadInterrupted&) {
     throw RunInterrupted(0, std::numeric_limits<double>::quiet_NaN());
+  } catch (const SystemFailure&) {
+    throw;  // exit 1: out of descriptors ("pipe: Too many open files") is no bad file
   } catch (const std::runtime_error& e) {
     throw ConfigError(e.what());
   }
@@ -197,6 +208,8 @@ void check_snapshot(const std::filesystem::path& path, std::size_t k, double T, 
 Field read_pressure(const FieldReader& fields, std::size_t k) {
   try {
     return fields.pressure(k);
+  } catch (const SystemFailure&) {
+    throw;
   } catch (const std::runtime_error& e) {
     throw ConfigError(e.what());
   }

@@ -22,7 +22,8 @@ inline constexpr const char* kSpikeProfilesFile = "spike_profiles.csv";
 inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
 
 /// The run.json at `path`.  Throws ConfigError naming the file when it is
-/// missing (the run did not finish) or not JSON.
+/// missing (the run did not finish), not JSON or not readable (a missing
+/// permission), SystemFailure when the machine failed to open it (EMFILE).
 [[nodiscard]] nlohmann::json read_run_json(const std::filesystem::path& path);
 
 /// Analyses `run_dir` into `out_dir` (created if missing; may be `run_dir`)
@@ -33,7 +34,8 @@ inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
 /// spike settings.  Throws ConfigError (a bad input: no such directory, no
 /// complete run in it, an unreadable fields.nc or run.json, a key outside
 /// [spike], a bad value, a busy `out_dir`), std::runtime_error (the output
-/// cannot be written), RunInterrupted (a signal during the analysis, or while
+/// cannot be written; SystemFailure where the machine failed to read the
+/// input, io/SystemFailure.hpp), RunInterrupted (a signal during the analysis, or while
 /// fields.nc is read in a child process first: io/IsolatedIo.hpp) or
 /// PublishInterrupted (a signal before the swap); then `out_dir` is as it was.
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
