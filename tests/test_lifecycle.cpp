@@ -495,6 +495,38 @@ TEST(Lifecycle, ARunDirectoryWhereAFileSystemIsMountedIsNotReplaced) {
   EXPECT_EQ(read_file(work / "mine.txt"), "mine\n");
 }
 
+TEST(Lifecycle, SpikeRefusesAnEntryItCannotCarryOverBeforeAnyWork) {
+  // A FIFO in the directory: the whole analysis ran, and then the swap
+  // failed with exit 1, "cannot carry '.../pipe' over".
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set time.T_end=0.3").exit_code, 0);
+  for (const fs::path& fifo : {run / "pipe", run / "mine" / "pipe"}) {
+    fs::create_directories(fifo.parent_path());
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0) << std::strerror(errno);
+    const std::set<std::string> before = names_in(run);
+    // It never reaches the analysis, where the hook would stop it.
+    const Child c = start({"spike", run.string()}, work / "spike", "analysis");
+    int status = 0;
+    ASSERT_EQ(waitpid(c.pid, &status, WUNTRACED), c.pid);
+    if (WIFSTOPPED(status)) {
+      kill(c.pid, SIGKILL);
+      exit_code_of(c);
+      FAIL() << "the analysis of " << fifo << " began";
+    }
+    EXPECT_EQ(WEXITSTATUS(status), 2) << fifo;
+    EXPECT_EQ(read_file(c.err),
+              "ehlsim: error: --out '" + run.string() + "' holds '" + fifo.string() +
+                  "', a FIFO (named pipe): ehlsim makes the directory anew with links of "
+                  "the entries it does not write, and can carry over only files, "
+                  "directories and symbolic links; move it, or choose another --out\n");
+    EXPECT_EQ(names_in(run), before);
+    EXPECT_EQ(names_in(work.path()), (std::set<std::string>{"run", "spike.err", "spike.out"}));
+    fs::remove(fifo);
+  }
+  EXPECT_EQ(ehlsim("spike --quiet " + quote(run.string())).exit_code, 0);
+}
+
 TEST(Lifecycle, AKilledRunsLeftoverKeepsWhatIsMountedInIt) {
   // The next run removes a killed run's staging directory (pid 999999 runs
   // no more), which emptied a tmpfs mounted in it: what is mounted stays.

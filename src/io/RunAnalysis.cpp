@@ -312,15 +312,21 @@ namespace {
 /// no run.json, the bad input is said instead: no run directory was given.
 std::unique_ptr<RunDirectory> lock_spike_out(const std::filesystem::path& run_dir,
                                              const std::filesystem::path& out_dir) {
+  // A run.json that is a FIFO is no complete run, before the amendment of
+  // RUN_DIR names it as an entry it cannot carry over.
+  const std::filesystem::path run_file = run_dir / RunOutput::kRunFile;
+  std::error_code ec;
+  if (std::filesystem::exists(std::filesystem::symlink_status(run_file, ec)) &&
+      !std::filesystem::is_regular_file(run_file, ec))
+    (void)read_run_json(run_file);  // throws its ConfigError
   try {
     return std::make_unique<RunDirectory>(
         out_dir, RunDirectory::Amend{{kSpikeSnapshotsFile, kSpikeProfilesFile, kAxisProfilesFile}});
   } catch (const ConfigError&) {
     throw;
   } catch (const std::runtime_error&) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(run_dir / RunOutput::kRunFile, ec))
-      (void)read_run_json(run_dir / RunOutput::kRunFile);  // throws its ConfigError
+    if (!std::filesystem::is_regular_file(run_file, ec))
+      (void)read_run_json(run_file);  // throws its ConfigError
     throw;
   }
 }

@@ -482,6 +482,47 @@ void copy_directory_attributes(const fs::path& source, const fs::path& copy) {
   ::utimensat(AT_FDCWD, copy.c_str(), times.data(), 0);  // the times are a courtesy
 }
 
+/// Whether an amendment can carry an entry of this type over: a file (as a
+/// link, or a copy), a directory (made anew) or a symbolic link (copied).
+bool is_carriable(const fs::file_status& status) {
+  return fs::is_regular_file(status) || fs::is_directory(status) || fs::is_symlink(status);
+}
+
+/// What an entry that is_carriable refuses is, for a message.
+std::string_view uncarriable_kind(const fs::file_status& status) {
+  switch (status.type()) {
+    case fs::file_type::fifo:
+      return "a FIFO (named pipe)";
+    case fs::file_type::socket:
+      return "a socket";
+    case fs::file_type::block:
+    case fs::file_type::character:
+      return "a device file";
+    default:
+      return "neither a file, a directory nor a symbolic link";
+  }
+}
+
+/// Refuses (bad input) an amendment of `resolved`, shown as `shown`, that
+/// holds an entry besides the `replaced` names that it cannot carry over:
+/// `ehlsim spike` analysed the whole run and only then failed with exit 1
+/// ("cannot carry '.../pipe' over").
+void refuse_uncarriable_entries(const fs::path& resolved, const std::vector<std::string>& replaced,
+                                const fs::path& shown) {
+  for (const CarriedEntry& entry : entries_below(resolved, replaced, shown)) {
+    std::error_code ec;
+    const fs::file_status status = fs::symlink_status(resolved / entry.relative, ec);
+    if (ec || is_carriable(status)) continue;
+    throw ConfigError(
+        fmt::format("--out '{}' holds '{}', {}: ehlsim makes the directory anew with "
+                    "links of the entries it does not write, and can carry over only "
+                    "files, directories and symbolic links; move it, or choose "
+                    "another --out",
+                    shown.string(), (shown / entry.relative).string(), uncarriable_kind(status)),
+        "--out");
+  }
+}
+
 /// Recreates `entries` of `from` in the empty directory `to`: directories
 /// made anew with their attributes, files hard-linked (copied where that
 /// fails), symbolic links copied; synced to disk.
@@ -499,9 +540,9 @@ void carry_over(const fs::path& from, const fs::path& to,
       fs::copy_symlink(source, copy);
     } else if (fs::is_regular_file(status)) {
       link_or_copy(source, copy);
-    } else {
-      throw std::runtime_error(fmt::format(
-          "cannot carry '{}' over: not a file, directory or symbolic link", source.string()));
+    } else {  // one that came during the analysis (refuse_uncarriable_entries)
+      throw std::runtime_error(
+          fmt::format("cannot carry '{}' over: {}", source.string(), uncarriable_kind(status)));
     }
   }
   // Deepest first: a directory's times change when entries are made in it.
@@ -802,6 +843,7 @@ RunDirectory::RunDirectory(const fs::path& target, const Amend& amend)
   if (fs::exists(fs::status(refuse_non_directory(target_), ec))) check_writable(target_);
   check_not_holding_working_directory(resolved_, target_);
   refuse_mount_points(resolved_, target_);
+  refuse_uncarriable_entries(resolved_, replaced_, target_);
   remove_debris(resolved_);
   fs::create_directory(staging_);
 }
