@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "io/Checkpoint.hpp"
+#include "io/FieldWriter.hpp"
 #include "io/ThreadBudget.hpp"
 #include "support/CheckpointDamage.hpp"
 #include "support/MemoryGuardCheck.hpp"
@@ -894,6 +895,16 @@ TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
   ehlsim::testing::rewrite_value(fields, "P", {0, 16, 16}, 1e308);
   expect_bad_input(ehlsim("spike --quiet " + quote(run.string())),
                    prefix + "(T = 1.03125) has the pressure 1e+308 (no run's is above 1e+100)");
+  // No snapshot at all (time of length 0): CSV headers alone, with exit 0.
+  {
+    ehlsim::FieldWriter empty(fields, ehlsim::Grid2D(33, 1.5), nlohmann::json::object());
+    empty.commit();
+  }
+  expect_bad_input(ehlsim("spike --quiet " + quote(run.string())),
+                   "cannot use '" + fields.string() +
+                       "': it holds no snapshot (time has length 0; every run stores at least its "
+                       "last step)");
+  EXPECT_FALSE(fs::exists(run / "spike_snapshots.csv"));
   // A start in run.json that gives no dry contact (Delta0 = 1e308 failed with exit 1).
   fs::copy_file(good, fields, fs::copy_options::overwrite_existing);
   nlohmann::json edited = nlohmann::json::parse(read_file(run / "run.json"));

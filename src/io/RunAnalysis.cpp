@@ -153,13 +153,15 @@ double recorded_waviness(const nlohmann::json& run) {
 
 /// Opens the fields.nc of a run, read in a child process first (a file HDF5
 /// crashes or hangs on is named like any other damaged one).  Throws
-/// ConfigError for a file that cannot be read, SystemFailure where the
-/// machine failed (no descriptor for the child's pipe), RunInterrupted for a
-/// signal during the child's read (the analysis has not started).
+/// ConfigError for a file that cannot be read or holds no snapshot,
+/// SystemFailure where the machine failed (no descriptor for the child's
+/// pipe), RunInterrupted for a signal during the child's read (the analysis
+/// has not started).
 std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
+  std::unique_ptr<FieldReader> fields;
   try {
     pre_read_fields_in_child(path);
-    return std::make_unique<FieldReader>(path);
+    fields = std::make_unique<FieldReader>(path);
   } catch (const PreReadInterrupted&) {
     throw RunInterrupted(0, std::numeric_limits<double>::quiet_NaN());
   } catch (const SystemFailure&) {
@@ -167,6 +169,13 @@ std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   } catch (const std::runtime_error& e) {
     throw ConfigError(e.what());
   }
+  // Every run stores its last step: an empty file gave CSV headers alone, exit 0.
+  if (fields->times().empty())
+    throw ConfigError(
+        fmt::format("cannot use '{}': it holds no snapshot (time has length 0; every "
+                    "run stores at least its last step)",
+                    path.string()));
+  return fields;
 }
 
 /// The largest pressure a snapshot may hold: far above any run's (the pocket
