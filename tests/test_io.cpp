@@ -1702,6 +1702,25 @@ TEST(RunDirectory, RemovesTheDebrisOfAKilledRun) {
   EXPECT_EQ(names_in(dir.path()), users);
 }
 
+TEST(RunDirectory, TellsItsStagingDirectoryByName) {
+  TempDir dir;
+  {
+    RunDirectory run(dir / "run");
+    EXPECT_EQ(run_directory_staged_in(run.staging()), dir / "run");
+  }
+  EXPECT_EQ(run_directory_staged_in(dir / ".a.b.part-999999/"), dir / "a.b");
+  EXPECT_EQ(run_directory_staged_in(dir / "..hidden.part-1"), dir / ".hidden");
+  // Through a link, and as "." from within (symbolic links resolved).
+  fs::create_directories(dir / ".run.part-12");
+  fs::create_directory_symlink(".run.part-12", dir / "link");
+  EXPECT_EQ(run_directory_staged_in(dir / "link"), dir / "run");
+  EXPECT_EQ(run_directory_staged_in(dir / ".run.part-12" / "."), dir / "run");
+  // No process id, no NAME, no leading dot: not a staging directory's name.
+  for (const char* name : {"run", ".run.part-", ".run.part-notes", ".run.part-1x", "..part-1",
+                           "run.part-1", ".run.part-12345678", ".run.old-1"})
+    EXPECT_EQ(run_directory_staged_in(dir / name), std::nullopt) << name;
+}
+
 TEST(RunDirectory, RefusesWhatEhlsimDidNotWrite) {
   TempDir dir;
   const auto message = [](const fs::path& target) {

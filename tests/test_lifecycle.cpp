@@ -1681,6 +1681,46 @@ TEST(Lifecycle, ASignalEndsSpikeAndKeepsTheEarlierSpikeFiles) {
   }
 }
 
+TEST(Lifecycle, SpikeRefusesTheStagingDirectoryOfARun) {
+  // `ehlsim spike .run.part-PID` of a run paused before its swap was
+  // accepted and swapped: the run then published spike files it never wrote.
+  TempDir work;
+  const fs::path run = work / "run";
+  const Child c = start({"impact", "--quiet", "--set", "grid.points=33", "--set",
+                         "body.elastic=false", "--set", "time.T_end=0.3", "--out", run.string()},
+                        work / "impact", "publish");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const fs::path staging = work / (".run.part-" + std::to_string(c.pid));
+  const std::string refusal = "' is the staging directory of an ehlsim run into '" + run.string() +
+                              "', one being written or left by a killed one: ehlsim spike reads "
+                              "and amends finished runs only; use '" +
+                              run.string() + "' once that run has ended\n";
+  const std::set<std::string> staged = names_in(staging);
+  Result r = ehlsim("spike --quiet " + quote(staging.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: run directory '" + staging.string() + refusal);
+  const fs::path finished = work / "finished";
+  ASSERT_EQ(run_into(finished, "--set time.T_end=0.3").exit_code, 0);
+  r = ehlsim("spike --quiet " + quote(finished.string()) + " --out " + quote(staging.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: --out '" + staging.string() + refusal);
+  EXPECT_EQ(names_in(staging), staged);
+  r = resume(c, 0);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(names_in(run), staged);  // no spike files
+  // What a killed run left (pid 999999 runs no more) is refused too.
+  const fs::path left = work / ".gone.part-999999";
+  fs::rename(finished, left);
+  r = ehlsim("spike --quiet " + quote(left.string()));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "ehlsim: error: run directory '" + left.string() +
+                       "' is the staging directory of an ehlsim run into '" +
+                       (work / "gone").string() +
+                       "', one being written or left by a killed one: ehlsim spike reads and "
+                       "amends finished runs only; use '" +
+                       (work / "gone").string() + "' once that run has ended\n");
+}
+
 TEST(Lifecycle, SpikeFailsRatherThanDropAFileAddedMeanwhile) {
   TempDir work;
   const fs::path run = run_with_earlier_spike_files(work);

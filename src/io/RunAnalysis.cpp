@@ -316,6 +316,20 @@ void check_spike_out(const std::filesystem::path& run_dir, const std::filesystem
 }  // namespace
 
 namespace {
+/// Refuses `dir` (RUN_DIR or --out, named as `what`) when it is the staging
+/// directory of a run: analysed and swapped, it had a run in progress publish
+/// files it never wrote.
+void refuse_staging_directory(const std::filesystem::path& dir, std::string_view what) {
+  const std::optional<std::filesystem::path> run = run_directory_staged_in(dir);
+  if (!run) return;
+  throw ConfigError(
+      fmt::format("{} '{}' is the staging directory of an ehlsim run into '{}', one being "
+                  "written or left by a killed one: ehlsim spike reads and amends finished "
+                  "runs only; use '{}' once that run has ended",
+                  what, dir.string(), run->string(), run->string()),
+      what == "--out" ? "--out" : "");
+}
+
 /// OUT, locked for the analysis.  Where it cannot be (`ehlsim spike
 /// /proc/self`: no lock file can be made beside it, exit 1) and RUN_DIR holds
 /// no run.json, the bad input is said instead: no run directory was given.
@@ -355,6 +369,8 @@ RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,
   if (run_dir.empty() || ec == std::errc::too_many_symbolic_link_levels ||
       (exists && !std::filesystem::is_directory(run_dir, ec)))
     refuse_run_dir();
+  refuse_staging_directory(run_dir, "run directory");
+  refuse_staging_directory(out_dir, "--out");
   // Then OUT locked (not while an impact run or another analysis writes
   // there; a busy RUN_DIR is named as such, not as missing).
   check_spike_out(run_dir, out_dir);

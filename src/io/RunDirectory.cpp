@@ -21,6 +21,7 @@
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -202,15 +203,19 @@ std::string read_lock_holder(int fd) {
   return n > 0 ? std::string(text.data(), static_cast<std::size_t>(n)) : std::string("starting");
 }
 
+/// Whether `digits` is a process id as written into the names beside DIR.
+bool is_process_id_text(std::string_view digits) {
+  return !digits.empty() && digits.size() <= kLongestPidDigits &&
+         digits.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
 /// True when `name` is "<prefix>PID" for the id of a process that has ended:
 /// what a killed writer left.  A live process's ("<prefix>1"), or a name
 /// that is no process id ("<prefix>mydata"), is the user's, and stays.
 bool left_by_ended_process(std::string_view name, std::string_view prefix) {
   if (!name.starts_with(prefix)) return false;
   const std::string_view digits = name.substr(prefix.size());
-  if (digits.empty() || digits.size() > kLongestPidDigits ||
-      digits.find_first_not_of("0123456789") != std::string_view::npos)
-    return false;
+  if (!is_process_id_text(digits)) return false;
   const pid_t pid = static_cast<pid_t>(std::stol(std::string(digits)));
   return pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH;
 }
@@ -666,6 +671,19 @@ void check_not_holding_working_directory(const fs::path& resolved, const fs::pat
 }
 
 }  // namespace
+
+std::optional<fs::path> run_directory_staged_in(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path plain = without_trailing_separator(dir);
+  const fs::path resolved = fs::weakly_canonical(plain, ec);  // a link to one, or "."
+  const std::string name = (ec ? plain : resolved).filename().string();
+  // The name RunDirectory gives its staging_: ".NAME" kStagingInfix "PID".
+  const std::size_t infix = name.rfind(kStagingInfix);
+  if (!name.starts_with('.') || infix == std::string::npos || infix < 2 ||
+      !is_process_id_text(std::string_view(name).substr(infix + kStagingInfix.size())))
+    return std::nullopt;
+  return (ec ? plain : resolved).parent_path() / name.substr(1, infix - 1);
+}
 
 bool holds_path(const fs::path& dir, const fs::path& inside) {
   std::error_code ec;

@@ -29,6 +29,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -187,6 +188,12 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 /// cannot write next to (`--out /etc/hostname`) failed to be created first,
 /// and the run ended with exit 1 for what is bad input.
 const std::filesystem::path& refuse_non_directory(const std::filesystem::path& shown);
+
+/// The run directory whose staging directory `dir` is (".NAME.part-PID",
+/// symbolic links resolved: NAME beside it), or none when it is not one.
+/// Such a directory is a run being written, or what a killed run left.
+[[nodiscard]] std::optional<std::filesystem::path> run_directory_staged_in(
+    const std::filesystem::path& dir);
 
 /// Whether `inside` is the directory `dir` or lies below it (both existing;
 /// symbolic links resolved).  False when either cannot be resolved.
