@@ -1061,7 +1061,8 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "--set physical.Rx=1e-300 --set physical.Ry=1e300 --set physical.load=10 --set "
       "physical.u1=1 --set physical.u2=1 --set physical.reduced_modulus=2.2e11 --set "
       "physical.eta0=0.04 --set physical.alpha=2e-8",
-      "physical.Ry = 1e+300: gives D = Rx / Ry = 0, which must be a finite number > 0");
+      "physical.Ry = 1e+300: with physical.Rx = 1e-300 (--set) gives D = Rx / Ry = 0, which "
+      "must be a finite number > 0");
   // Beyond any contact, still a number: D = 1e295, the largest allowed,
   // reaches X = 7.586 (1e300 is out of range: RefusesAnEllipticity...).
   expect_refused("--set case.D=1e295", "grid.x_min = -4.5 (the default): must be < -7.586");
@@ -1072,6 +1073,27 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
   EXPECT_NO_THROW((void)load_rolling_config(
       std::nullopt, {"body.elastic=false", "grid.x_min=-0.8", "grid.x_max=0.8", "grid.y_min=-0.8",
                      "grid.y_max=0.8"}));
+}
+
+TEST(RollingCli, ARatioOfRadiiBeyondADoubleNamesTheRadiusThatMakesIt) {
+  // physical.Rx = 1e308 set on the command line was told as the file's
+  // physical.Ry = 0.0127; the message blames the radius that overflows D
+  // (a large Rx, a small Ry) and names the other with its value and place.
+  const std::string file = (testing::source_dir() / "examples" / "rolling-physical.toml").string();
+  const auto expect_refused = [&](const std::string& sets, const std::string& message) {
+    const auto r = testing::ehlsim("rolling --quiet " + testing::quote(file) +
+                                   " --set grid.points=33 " + sets + " --out /nonexistent/x");
+    EXPECT_EQ(r.exit_code, 2) << sets;
+    EXPECT_EQ(r.err, "ehlsim: error: " + message + ", which must be a finite number > 0 (--set)\n")
+        << sets;
+  };
+  expect_refused("--set physical.Rx=1e308", "physical.Rx = 1e+308: with physical.Ry = 0.0127 (" +
+                                                file + ":5:6) gives D = Rx / Ry = inf");
+  expect_refused("--set physical.Ry=1e-320", "physical.Ry = 1e-320: with physical.Rx = 0.0127 (" +
+                                                 file + ":4:6) gives D = Rx / Ry = inf");
+  expect_refused(
+      "--set physical.Rx=1e-320 --set physical.Ry=1e10",
+      "physical.Rx = 1e-320: with physical.Ry = 10000000000 (--set) gives D = Rx / Ry = 0");
 }
 
 TEST(RollingCli, TakesAnotherSquareDomain) {
