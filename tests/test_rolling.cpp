@@ -1062,7 +1062,7 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
       "physical.u1=1 --set physical.u2=1 --set physical.reduced_modulus=2.2e11 --set "
       "physical.eta0=0.04 --set physical.alpha=2e-8",
       "physical.Ry = 1e+300: with physical.Rx = 1e-300 (--set) gives D = Rx / Ry = 0, which "
-      "must be a finite number > 0");
+      "must be in [1e-295, 1e+295] (case.D's range)");
   // Beyond any contact, still a number: D = 1e295, the largest allowed,
   // reaches X = 7.586 (1e300 is out of range: RefusesAnEllipticity...).
   expect_refused("--set case.D=1e295", "grid.x_min = -4.5 (the default): must be < -7.586");
@@ -1075,16 +1075,19 @@ TEST(RollingCli, ADomainOrGridThatCannotHoldTheDryContactIsRefused) {
                      "grid.y_max=0.8"}));
 }
 
-TEST(RollingCli, ARatioOfRadiiBeyondADoubleNamesTheRadiusThatMakesIt) {
+TEST(RollingCli, ARatioOfRadiiOutOfRangeNamesTheRadiusThatMakesIt) {
   // physical.Rx = 1e308 set on the command line was told as the file's
-  // physical.Ry = 0.0127; the message blames the radius that overflows D
-  // (a large Rx, a small Ry) and names the other with its value and place.
+  // physical.Ry = 0.0127; the message blames the radius that drives D out of
+  // case.D's range (a large Rx or a small Ry above it) and names the other
+  // with its value and place.  A finite D beyond that range (1e-308) passed,
+  // and the domain check said "must be < -inf".
   const std::string file = (testing::source_dir() / "examples" / "rolling-physical.toml").string();
   const auto expect_refused = [&](const std::string& sets, const std::string& message) {
     const auto r = testing::ehlsim("rolling --quiet " + testing::quote(file) +
                                    " --set grid.points=33 " + sets + " --out /nonexistent/x");
     EXPECT_EQ(r.exit_code, 2) << sets;
-    EXPECT_EQ(r.err, "ehlsim: error: " + message + ", which must be a finite number > 0 (--set)\n")
+    EXPECT_EQ(r.err, "ehlsim: error: " + message +
+                         ", which must be in [1e-295, 1e+295] (case.D's range) (--set)\n")
         << sets;
   };
   expect_refused("--set physical.Rx=1e308", "physical.Rx = 1e+308: with physical.Ry = 0.0127 (" +
@@ -1094,6 +1097,9 @@ TEST(RollingCli, ARatioOfRadiiBeyondADoubleNamesTheRadiusThatMakesIt) {
   expect_refused(
       "--set physical.Rx=1e-320 --set physical.Ry=1e10",
       "physical.Rx = 1e-320: with physical.Ry = 10000000000 (--set) gives D = Rx / Ry = 0");
+  expect_refused(
+      "--set physical.Rx=1e-3 --set physical.Ry=1e305",
+      "physical.Ry = 1e+305: with physical.Rx = 0.001 (--set) gives D = Rx / Ry = 1e-308");
 }
 
 TEST(RollingCli, TakesAnotherSquareDomain) {

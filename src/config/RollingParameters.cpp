@@ -78,21 +78,23 @@ std::vector<ParameterSpec> build_rolling_registry() {
   return r;
 }
 
-/// Fails unless D = Rx / Ry of the radii `p` is a finite number > 0, naming
-/// both radii and blaming the one that makes it overflow (a large Rx, a
-/// small Ry) or underflow (the reverse): the further from 1 m on that side.
-/// physical.Rx = 1e308 was told as the file's physical.Ry = 0.0127.  Ry is
+/// Fails unless D = Rx / Ry of the radii `p` lies in case.D's range, naming
+/// both radii and blaming the one that drives it out (a large Rx or a small
+/// Ry above, the reverse below): the further from 1 m on that side.
+/// physical.Rx = 1e308 was told as the file's physical.Ry = 0.0127, and a D
+/// of 1e-308, finite, passed on to "grid.x_min ...: must be < -inf".  Ry is
 /// given whenever D fails (its default, Rx, gives D = 1).
 void check_radii_ratio(const Inputs& in, const RollingPhysical& p, double D) {
-  if (std::isfinite(D) && D > 0.0) return;
+  if (D >= kMinEllipticity && D <= 1.0 / kMinEllipticity) return;
   const double log_product = std::log(p.Rx_m) + std::log(p.Ry_m);
-  const bool rx = std::isinf(D) ? log_product > 0.0 : log_product < 0.0;
+  const bool rx = D > 1.0 ? log_product > 0.0 : log_product < 0.0;
   const char* other_key = rx ? "physical.Ry" : "physical.Rx";
   const Given* other = in.given(other_key);
   const std::string with =
       other ? fmt::format("with {} = {} ({}) ", other_key, other->text, other->origin) : "";
   in.fail(rx ? "physical.Rx" : "physical.Ry",
-          fmt::format("{}gives D = Rx / Ry = {:g}, which must be a finite number > 0", with, D));
+          fmt::format("{}gives D = Rx / Ry = {:g}, which must be in [{:g}, {:g}] (case.D's range)",
+                      with, D, kMinEllipticity, 1.0 / kMinEllipticity));
 }
 
 /// M, L, D and the Hertz scales of a case given in SI units (model.md).
