@@ -151,6 +151,15 @@ std::string formula_note(const RollingConfig& c, double deviation) {
       100.0 * deviation, causes);
 }
 
+/// A measure at round-off: solver.tolerance = 1e-300 on 33^2 sat at 2.7e-16,
+/// where the last cycles' noise made it look converging or stalled by turns.
+constexpr double kRoundOffResidual = 1e-13;
+
+/// Defined with the hints below.
+double stall_measure(const RollingCycle& c);
+bool stalled(const std::vector<RollingCycle>& history);
+std::string round_off_text(const RollingConfig& c, const RollingCycle& last);
+
 /// Thrown by a stage whose iteration diverged (caught by the retries).
 struct StageDiverged : RollingFailure {
   using RollingFailure::RollingFailure;
@@ -159,6 +168,14 @@ struct StageDiverged : RollingFailure {
 /// Thrown when the finest grid's iteration, neither diverged nor stalled in
 /// its last attempt, is still above the tolerance after solver.max_cycles.
 struct CyclesExhausted : RollingFailure {
+  using RollingFailure::RollingFailure;
+};
+
+/// Thrown when the finest grid's iteration stalled at round-off above the
+/// tolerance: more cycles, or the other deformation update, cannot help.
+/// solver.tolerance = 1e-300 with solver.max_cycles = 100000 on 33^2 cycled
+/// for minutes (both updates) before it said so.
+struct AtRoundOff : RollingFailure {
   using RollingFailure::RollingFailure;
 };
 
@@ -415,6 +432,9 @@ bool RollingProblem::Impl::converge_on(int level, const Attempt& attempt, Iterat
     if (level == 0 && record.residual < cfg.tolerance &&
         std::abs(record.force_error) < cfg.tolerance)
       return true;
+    if (level == 0 && stall_measure(record) < kRoundOffResidual && stalled(history))
+      throw AtRoundOff(fmt::format("not converged on the {}^2 grid after {} cycles{}",
+                                   record.points, record.cycle, round_off_text(cfg, record)));
   }
   return false;
 }
@@ -741,10 +761,6 @@ bool stalled(const std::vector<RollingCycle>& history) {
          !(stall_measure(*window->second) < kStalledRunFactor * stall_measure(*window->first));
 }
 
-/// A measure at round-off: solver.tolerance = 1e-300 on 33^2 sat at 2.7e-16,
-/// where the last cycles' noise made it look converging or stalled by turns.
-constexpr double kRoundOffResidual = 1e-13;
-
 /// A run still converging steadily is told that more cycles may converge it
 /// when its rate would reach the tolerance within this many times
 /// solver.max_cycles more: a Newton step of H0 of 1e-9 lowered the force
@@ -769,14 +785,18 @@ std::optional<SteadyProgress> steady_progress(const std::vector<RollingCycle>& h
                         std::log(tolerance / stall_measure(history.back())) / std::log(*rate)};
 }
 
+std::string round_off_text(const RollingConfig& c, const RollingCycle& last) {
+  return fmt::format(
+      "; its max(residual, |force error|), {:.2g}, is at round-off: solver.tolerance = {:g} is "
+      "below what it can reach",
+      stall_measure(last), c.tolerance);
+}
+
 /// What the last cycles of a run out of cycles tell, or "": at round-off,
 /// still converging (at what rate, how many more cycles), or stalled.
 std::string progress_hint(const RollingConfig& c, const std::vector<RollingCycle>& history) {
   if (!history.empty() && stall_measure(history.back()) < kRoundOffResidual)
-    return fmt::format(
-        "; its max(residual, |force error|), {:.2g}, is at round-off: solver.tolerance = {:g} is "
-        "below what it can reach",
-        stall_measure(history.back()), c.tolerance);
+    return round_off_text(c, history.back());
   if (const std::optional<SteadyProgress> steady = steady_progress(history, c.tolerance)) {
     const double needed = std::ceil(kMoreCyclesMargin * steady->more_cycles);
     const std::string converging = fmt::format(
@@ -855,6 +875,8 @@ RollingResult RollingProblem::run(const CycleMonitor& monitor, const FallbackMon
   std::string first_failure;
   try {
     return solve(monitor);
+  } catch (const AtRoundOff&) {
+    throw;  // complete as it is: no other update gets below round-off
   } catch (const RollingFailure& e) {
     const RollingConfig& c = impl_->cfg;
     const std::string domain = impl_->domain_hint();
