@@ -104,8 +104,9 @@ inline constexpr int kInitialRateCycles = 5;
 /// solver.max_cycles.
 [[nodiscard]] double round_off_residual(double max_pressure, int points);
 inline constexpr double kRoundOffUlps = 100.0;
-/// A solve at T = 0 whose residual is below round_off_residual and fell by
-/// less than half over this many cycles stops there (at_round_off).
+/// A solve (at T = 0, or a step's attempt) whose residual is below
+/// round_off_residual and fell by less than half over this many cycles ends
+/// the run there: no cycle, retry or shorter step gets further.
 inline constexpr int kRoundOffCycles = 10;
 /// Whether the last kRoundOffCycles + 1 `residuals` lie below `floor` and fell
 /// by less than half.
@@ -113,6 +114,7 @@ inline constexpr int kRoundOffCycles = 10;
 /// What a solve that stalled at round-off with `residual` above `tolerance`
 /// says after "the film pressure ...".
 [[nodiscard]] std::string round_off_text(double residual, double tolerance);
+
 /// A solve at T = 0 whose residual still fell this fast, and is below the
 /// residual it started from, ran out of cycles, and did not stall.  (M = 0.01
 /// on 33^2 overflows: its residual fell from far above its start to 4.6e27 in
