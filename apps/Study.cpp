@@ -598,14 +598,14 @@ void carry_over_other_files(const fs::path& figures, const fs::path& staging) {
 int draw_figures(const std::string& python, const fs::path& script, const fs::path& out,
                  const fs::path& log) {
   const fs::path figures = out / "figures";
-  const std::string staging_prefix = ".figures.part-";
+  const std::string prefix = ehlsim::staging_prefix(figures.filename().string());
   std::error_code ec;
   for (const fs::directory_entry& entry : fs::directory_iterator(out, ec)) {
     // A killed study's (the study lock is ours).
-    if (entry.path().filename().string().starts_with(staging_prefix))
+    if (entry.path().filename().string().starts_with(prefix))
       ehlsim::remove_within_mount(entry.path());
   }
-  const fs::path staging = out / fmt::format("{}{}", staging_prefix, getpid());
+  const fs::path staging = out / fmt::format("{}{}", prefix, getpid());
   int code = cli::kExitFailure;
   try {
     fs::create_directory(staging);

@@ -222,7 +222,7 @@ bool left_by_ended_process(std::string_view name, std::string_view prefix) {
 
 /// The staging directories and swapped-out runs that killed runs into `target` left.
 void remove_debris(const fs::path& target) {
-  const std::string staging = fmt::format(".{}{}", target.filename().string(), kStagingInfix);
+  const std::string staging = staging_prefix(target.filename().string());
   const std::string old = fmt::format(".{}{}", target.filename().string(), kOldInfix);
   std::error_code ec;
   for (const fs::directory_entry& entry : fs::directory_iterator(target.parent_path(), ec)) {
@@ -671,6 +671,10 @@ void check_not_holding_working_directory(const fs::path& resolved, const fs::pat
 }
 
 }  // namespace
+
+std::string staging_prefix(std::string_view name) {
+  return fmt::format(".{}{}", name, kStagingInfix);
+}
 
 std::optional<fs::path> run_directory_staged_in(const fs::path& dir) {
   std::error_code ec;

@@ -31,6 +31,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "config/ParameterSet.hpp"
@@ -188,6 +189,11 @@ void replace_directory(const std::filesystem::path& staging, const std::filesyst
 /// cannot write next to (`--out /etc/hostname`) failed to be created first,
 /// and the run ended with exit 1 for what is bad input.
 const std::filesystem::path& refuse_non_directory(const std::filesystem::path& shown);
+
+/// The start of the names of the staging directories of `name` (".NAME.part-"),
+/// before the writer's process id: also for a directory that ehlsim stages
+/// without a RunDirectory (a study's figures).
+[[nodiscard]] std::string staging_prefix(std::string_view name);
 
 /// The run directory whose staging directory `dir` is (".NAME.part-PID",
 /// symbolic links resolved: NAME beside it), or none when it is not one.
