@@ -204,19 +204,20 @@ TEST(RunGuards, OnlyASteadyFallOfFiniteResidualsIsStillConverging) {
 TEST(RunGuards, AResidualStallsAtRoundOffOnlyBelowItsFloor) {
   // The floor of a pressure of 5.5e-3 (the default case at T = 0) on 33^2.
   const double floor = round_off_residual(5.5e-3, 31 * 31);
+  const auto at = [&] { return floor; };
   EXPECT_NEAR(floor, kRoundOffUlps * 2.220446e-16 * 5.5e-3 / 31.0, 1e-24);
   std::vector<double> level(kRoundOffCycles + 1, 0.1 * floor);
-  EXPECT_TRUE(stalled_at_round_off(level, floor));
+  EXPECT_TRUE(stalled_at_round_off(level, at));
   // Fewer cycles than the window, or one of them above the floor: not yet.
-  EXPECT_FALSE(stalled_at_round_off({level.begin() + 1, level.end()}, floor));
+  EXPECT_FALSE(stalled_at_round_off({level.begin() + 1, level.end()}, at));
   level.front() = 2.0 * floor;
-  EXPECT_FALSE(stalled_at_round_off(level, floor));
+  EXPECT_FALSE(stalled_at_round_off(level, at));
   // Still halving over the window: converging, whatever its level.
   std::vector<double> falling{0.1 * floor};
   for (int c = 0; c < kRoundOffCycles; ++c) falling.push_back(0.9 * falling.back());
-  EXPECT_FALSE(stalled_at_round_off(falling, floor));
+  EXPECT_FALSE(stalled_at_round_off(falling, at));
   // A stall above the floor is no round-off (M = 2, L = 20 on 129^2 sat at 1e-4).
-  EXPECT_FALSE(stalled_at_round_off(std::vector<double>(kRoundOffCycles + 1, 1e-4), floor));
+  EXPECT_FALSE(stalled_at_round_off(std::vector<double>(kRoundOffCycles + 1, 1e-4), at));
 }
 
 TEST(RunGuards, AtRestWhenTooLittleEnergyIsLeftForARebound) {

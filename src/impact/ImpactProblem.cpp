@@ -525,7 +525,7 @@ InitialSolve ImpactProblem::Impl::solve_initial_pressure() {
     residuals.push_back(residual);
     if (residual < tolerance && force_has_settled(force, force_before_cycle)) break;
     // A tolerance below round-off: no cycle gets nearer (1e-300 cycled for ever).
-    at_round_off = stalled_at_round_off(residuals, round_off_floor());
+    at_round_off = stalled_at_round_off(residuals, [&] { return round_off_floor(); });
     if (at_round_off) break;
     force_before_cycle = force;
     solver->cycle();
@@ -572,7 +572,7 @@ ImpactProblem::Impl::AttemptEnd ImpactProblem::Impl::iterate_time_step(const Cyc
           "{} at the start of the step){}",
           time_step_text(step, ball.T + newmark.dT()), finite_or_text(residual, "{:.3e}"),
           finite_or_text(initial_residual, "{:.3e}"), rigid_film_hint(cfg)));
-    if (stalled_at_round_off(history, round_off_floor()))
+    if (stalled_at_round_off(history, [&] { return round_off_floor(); }))
       throw StepAtRoundOff{fmt::format("{}: the film pressure {}",
                                        time_step_text(step, ball.T + newmark.dT()),
                                        round_off_text(residual, cfg.tolerance))};

@@ -206,12 +206,14 @@ double round_off_residual(double max_pressure, int points) {
   return kRoundOffUlps * std::numeric_limits<double>::epsilon() * max_pressure / std::sqrt(n);
 }
 
-bool stalled_at_round_off(const std::vector<double>& residuals, double floor) {
+bool stalled_at_round_off(const std::vector<double>& residuals,
+                          const std::function<double()>& floor) {
   constexpr std::size_t kWindow = kRoundOffCycles + 1;
   if (residuals.size() < kWindow) return false;
   const auto window = std::span(residuals).last(kWindow);
-  const bool below = std::ranges::all_of(window, [&](double r) { return r < floor; });
-  return below && !(window.back() < 0.5 * window.front());
+  if (window.back() < 0.5 * window.front()) return false;  // still falling
+  const double below = floor();
+  return std::ranges::all_of(window, [&](double r) { return r < below; });
 }
 
 std::string round_off_text(double residual, double tolerance) {

@@ -10,6 +10,7 @@
 // the elastic energy of the quasi-static film the run starts with).  A state
 // that breaks a bound derived from it did not come from the equations: the
 // run ends with exit 1 and says why.
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -108,9 +109,11 @@ inline constexpr double kRoundOffUlps = 100.0;
 /// round_off_residual and fell by less than half over this many cycles ends
 /// the run there: no cycle, retry or shorter step gets further.
 inline constexpr int kRoundOffCycles = 10;
-/// Whether the last kRoundOffCycles + 1 `residuals` lie below `floor` and fell
-/// by less than half.
-[[nodiscard]] bool stalled_at_round_off(const std::vector<double>& residuals, double floor);
+/// Whether the last kRoundOffCycles + 1 `residuals` fell by less than half and
+/// lie below `floor()`, which is asked only then: it scans the pressure, and
+/// the test runs after every cycle of every step.
+[[nodiscard]] bool stalled_at_round_off(const std::vector<double>& residuals,
+                                        const std::function<double()>& floor);
 /// What a solve that stalled at round-off with `residual` above `tolerance`
 /// says after "the film pressure ...".
 [[nodiscard]] std::string round_off_text(double residual, double tolerance);
