@@ -19,6 +19,7 @@ Exits 1 naming every failed check.
 """
 import json
 import math
+import shutil
 import sys
 import subprocess
 from pathlib import Path
@@ -38,7 +39,7 @@ HERTZ_FORCE = 2.0 * math.pi / 3.0
 
 
 def run_case(ehlsim, mode, run_dir):
-    subprocess.run(["rm", "-rf", str(run_dir)], check=True)
+    shutil.rmtree(run_dir, ignore_errors=True)
     subprocess.run([ehlsim, mode, *CASES[mode], "--out", str(run_dir), "--quiet"], check=True)
     return json.loads((run_dir / "run.json").read_text())
 
