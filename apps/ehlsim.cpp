@@ -54,7 +54,7 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
-#include "io/SystemFailure.hpp"
+#include "config/SystemFailure.hpp"
 #include "io/ThreadBudget.hpp"
 
 namespace {

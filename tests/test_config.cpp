@@ -2,7 +2,10 @@
 // ranges and docs declared once), the TOML reader and --set, the messages of
 // bad input, the [physical] section's Moes groups and scales, and the echo
 // of the effective parameters.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
@@ -16,6 +19,7 @@
 
 #include "config/Parameters.hpp"
 #include "config/RollingParameters.hpp"
+#include "config/SystemFailure.hpp"
 #include "dynamics/DryHertz.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/Scaling.hpp"
@@ -570,6 +574,36 @@ TEST(RegistryErrors, UnreadableAndMalformedFiles) {
   EXPECT_EQ(config_error(f, {}), "cannot read config file '" + f + "'" + too_large);
   write_file(f, "# " + std::string(kLimit - 20, 'x') + "\n[case]\nM = 20\n");
   EXPECT_EQ(load_config(fs::path(f), {}).M, 20.0);  // just below the limit: read
+}
+
+TEST(RegistryErrors, AConfigFileUnreadableForLackOfDescriptorsIsTheMachinesFailure) {
+  // Out of descriptors the file is not at fault: SystemFailure (exit 1), not
+  // ConfigError (exit 2, "bad input").  The soft limit is set to the lowest
+  // free descriptor, so that the next open fails with EMFILE.
+  TempDir dir;
+  const fs::path f = write_file(dir / "case.toml", "[case]\nM = 20\n");
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &saved), 0);
+  const int lowest_free = ::open("/dev/null", O_RDONLY);
+  ASSERT_GE(lowest_free, 0);
+  ::close(lowest_free);
+  rlimit tight = saved;
+  tight.rlim_cur = static_cast<rlim_t>(lowest_free);
+  ASSERT_EQ(setrlimit(RLIMIT_NOFILE, &tight), 0);
+  std::string what;
+  bool system_failure = false;
+  try {
+    (void)load_config(f, {});
+  } catch (const SystemFailure& e) {
+    system_failure = true;
+    what = e.what();
+  } catch (const std::exception& e) {
+    what = e.what();
+  }
+  ASSERT_EQ(setrlimit(RLIMIT_NOFILE, &saved), 0);
+  EXPECT_TRUE(system_failure) << what;
+  EXPECT_EQ(what, "cannot read config file '" + f.string() + "': Too many open files");
+  EXPECT_EQ(load_config(f, {}).M, 20.0);  // with descriptors to spare: read
 }
 
 TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {

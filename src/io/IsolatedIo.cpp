@@ -20,7 +20,7 @@
 
 #include "io/Interrupt.hpp"
 #include "io/NetcdfStatus.hpp"
-#include "io/SystemFailure.hpp"
+#include "config/SystemFailure.hpp"
 
 namespace ehlsim {
 

@@ -52,7 +52,7 @@ struct ChildWait {
 /// output (stdout and stderr go to /dev/null), dies with this process, and
 /// ends with _exit: no exit handler (HDF5's closes every open file) runs
 /// there.  `task` must not use OpenMP: the child has none of the parent's
-/// threads.  Throws SystemFailure (io/SystemFailure.hpp) "cannot <action>
+/// threads.  Throws SystemFailure (config/SystemFailure.hpp) "cannot <action>
 /// '<path>': fork ...: <reason>" (or "pipe: ...") when the child cannot be
 /// started.
 [[nodiscard]] ChildOutcome run_in_child(const std::filesystem::path& path, std::string_view action,

@@ -13,7 +13,7 @@
 #include <system_error>
 #include <vector>
 
-#include "io/SystemFailure.hpp"
+#include "config/SystemFailure.hpp"
 
 namespace ehlsim {
 

@@ -17,7 +17,7 @@ namespace ehlsim {
 [[nodiscard]] std::string netcdf_path(const std::filesystem::path& path);
 
 /// Throws std::runtime_error "cannot <action> '<path>': <what>: <NetCDF's
-/// message>" unless `status` is NC_NOERR; SystemFailure (io/SystemFailure.hpp)
+/// message>" unless `status` is NC_NOERR; SystemFailure (config/SystemFailure.hpp)
 /// for a system error of the machine (EMFILE, EIO, ...) that NetCDF passes on.
 void check_netcdf(int status, std::string_view action, const std::filesystem::path& path,
                   std::string_view what);

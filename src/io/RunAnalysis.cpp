@@ -24,7 +24,7 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
-#include "io/SystemFailure.hpp"
+#include "config/SystemFailure.hpp"
 
 namespace ehlsim {
 

@@ -35,7 +35,7 @@ inline constexpr const char* kAxisProfilesFile = "axis_profiles.csv";
 /// complete run in it, an unreadable fields.nc or run.json, a key outside
 /// [spike], a bad value, a busy `out_dir`), std::runtime_error (the output
 /// cannot be written; SystemFailure where the machine failed to read the
-/// input, io/SystemFailure.hpp), RunInterrupted (a signal during the analysis, or while
+/// input, config/SystemFailure.hpp), RunInterrupted (a signal during the analysis, or while
 /// fields.nc is read in a child process first: io/IsolatedIo.hpp) or
 /// PublishInterrupted (a signal before the swap); then `out_dir` is as it was.
 RunAnalysisReport analyze_run_directory(const std::filesystem::path& run_dir,

@@ -1,4 +1,4 @@
-#include "io/SystemFailure.hpp"
+#include "config/SystemFailure.hpp"
 
 #include <fmt/format.h>
 
