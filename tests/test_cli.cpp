@@ -918,6 +918,29 @@ TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
       << far.err;
 }
 
+TEST(Cli, ANetcdfInputTheMachineCannotReadIsAFailureNotAnotherFormat) {
+  // /proc/self/mem reads with EIO at its first byte, as a failing disk does.
+  // Its first bytes were taken for another format ("not a NetCDF-4 file",
+  // exit 2, bad input); an I/O error is the machine's failure: exit 1.
+  TempDir dir;
+  const fs::path run = dir / "run";
+  ASSERT_EQ(tiny_run(run, "--set time.T_end=0.2").exit_code, 0);
+  fs::remove(run / "fields.nc");
+  fs::create_symlink("/proc/self/mem", run / "fields.nc");
+  const Result spike = ehlsim("spike --quiet " + quote(run.string()));
+  EXPECT_EQ(spike.exit_code, 1);
+  EXPECT_EQ(spike.err, "ehlsim: error: cannot read '" + (run / "fields.nc").string() +
+                           "': Input/output error\n");
+  EXPECT_FALSE(fs::exists(run / "spike_snapshots.csv"));
+  const Result restart =
+      ehlsim("impact --quiet --set grid.points=33 --restart /proc/self/mem --out " +
+             quote((dir / "again").string()));
+  EXPECT_EQ(restart.exit_code, 1);
+  EXPECT_EQ(restart.err,
+            "ehlsim: error: cannot read checkpoint '/proc/self/mem': Input/output error\n");
+  EXPECT_FALSE(fs::exists(dir / "again"));
+}
+
 TEST(Cli, SpikeFilesGoIntoTheRunOrADirectoryOfTheirOwn) {
   TempDir dir;
   const fs::path run = dir / "run", other = dir / "other";

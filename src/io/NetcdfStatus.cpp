@@ -6,8 +6,9 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -70,13 +71,21 @@ void require_netcdf4_file(const std::filesystem::path& path, std::string_view ac
     throw std::runtime_error(fmt::format(
         "cannot {} '{}': not a regular file (a directory, FIFO or device)", action, path.string()));
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return;
+  // A file that cannot be opened is left to the library, whose message names the reason.
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
+                                                             &std::fclose);
+  if (!file) return;
   std::array<char, kSignature.size()> head{};
-  in.read(head.data(), head.size());
-  if (in.gcount() == static_cast<std::streamsize>(head.size()) &&
-      std::equal(head.begin(), head.end(), kSignature.begin()))
-    return;
+  const std::size_t got = std::fread(head.data(), 1, head.size(), file.get());
+  // An I/O error is no file of another format (/proc/self/mem: EIO at its first byte).
+  if (std::ferror(file.get())) {
+    const int error = errno;
+    const std::string message = fmt::format("cannot {} '{}': {}", action, path.string(),
+                                            std::generic_category().message(error));
+    if (is_system_failure(error)) throw SystemFailure(message);
+    throw std::runtime_error(message);
+  }
+  if (got == head.size() && std::equal(head.begin(), head.end(), kSignature.begin())) return;
   throw std::runtime_error(fmt::format(
       "cannot {} '{}': not a NetCDF-4 file (ehlsim reads and writes NetCDF-4/HDF5 only; the "
       "file does not start with the HDF5 signature)",

@@ -28,6 +28,7 @@
 #include <system_error>
 
 #include "config/Parameters.hpp"
+#include "config/SystemFailure.hpp"
 #include "io/AtomicFile.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Interrupt.hpp"
@@ -908,6 +909,8 @@ void RunDirectory::refuse_foreign_checkpoint() const {
                !(path == partial && fs::is_regular_file(status) && fs::is_empty(path, ec))) {
       try {
         require_netcdf4_file(path, "replace");
+      } catch (const SystemFailure&) {
+        throw;  // an I/O error says nothing of whose file it is
       } catch (const std::runtime_error& e) {
         why = e.what();
       }
