@@ -604,6 +604,17 @@ TEST(RegistryErrors, AConfigFileUnreadableForLackOfDescriptorsIsTheMachinesFailu
   EXPECT_TRUE(system_failure) << what;
   EXPECT_EQ(what, "cannot read config file '" + f.string() + "': Too many open files");
   EXPECT_EQ(load_config(f, {}).M, 20.0);  // with descriptors to spare: read
+  // So is an I/O error: /proc/self/mem reads with EIO at its first byte.
+  EXPECT_THROW(
+      {
+        try {
+          (void)load_config(fs::path("/proc/self/mem"), {});
+        } catch (const SystemFailure& e) {
+          EXPECT_STREQ(e.what(), "cannot read config file '/proc/self/mem': Input/output error");
+          throw;
+        }
+      },
+      SystemFailure);
 }
 
 TEST(Parameters, ARoelandsLawGivenItsOwnAlphaHasItsOwnL) {
