@@ -40,6 +40,7 @@
 #include "Rolling.hpp"
 #include "Study.hpp"
 #include "config/Parameters.hpp"
+#include "config/SystemFailure.hpp"
 #include "grid/Grid.hpp"
 #include "impact/ImpactConfig.hpp"
 #include "impact/ImpactProblem.hpp"
@@ -54,7 +55,6 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
-#include "config/SystemFailure.hpp"
 #include "io/ThreadBudget.hpp"
 
 namespace {

@@ -918,7 +918,7 @@ TEST(Cli, SpikeRefusesAFieldsFileNoRunWrites) {
       << far.err;
 }
 
-TEST(Cli, ANetcdfInputTheMachineCannotReadIsAFailureNotAnotherFormat) {
+TEST(Cli, AnInputTheMachineCannotReadIsAFailureNotBadInput) {
   // /proc/self/mem reads with EIO at its first byte, as a failing disk does.
   // Its first bytes were taken for another format ("not a NetCDF-4 file",
   // exit 2, bad input); an I/O error is the machine's failure: exit 1.
@@ -939,6 +939,14 @@ TEST(Cli, ANetcdfInputTheMachineCannotReadIsAFailureNotAnotherFormat) {
   EXPECT_EQ(restart.err,
             "ehlsim: error: cannot read checkpoint '/proc/self/mem': Input/output error\n");
   EXPECT_FALSE(fs::exists(dir / "again"));
+  // run.json: libstdc++'s "basic_filebuf::underflow error reading the file", no path named.
+  fs::remove(run / "fields.nc");
+  fs::remove(run / "run.json");
+  fs::create_symlink("/proc/self/mem", run / "run.json");
+  const Result json = ehlsim("spike --quiet " + quote(run.string()));
+  EXPECT_EQ(json.exit_code, 1);
+  EXPECT_EQ(json.err, "ehlsim: error: cannot read '" + (run / "run.json").string() +
+                          "': Input/output error\n");
 }
 
 TEST(Cli, SpikeFilesGoIntoTheRunOrADirectoryOfTheirOwn) {

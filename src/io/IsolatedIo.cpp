@@ -18,9 +18,9 @@
 #include <string>
 #include <system_error>
 
+#include "config/SystemFailure.hpp"
 #include "io/Interrupt.hpp"
 #include "io/NetcdfStatus.hpp"
-#include "config/SystemFailure.hpp"
 
 namespace ehlsim {
 

@@ -15,6 +15,7 @@
 
 #include "analysis/SpikeAnalysis.hpp"
 #include "config/Parameters.hpp"
+#include "config/SystemFailure.hpp"
 #include "grid/FieldExtrema.hpp"
 #include "impact/RunGuards.hpp"
 #include "io/FieldReader.hpp"
@@ -24,7 +25,6 @@
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
 #include "io/SpikeWriter.hpp"
-#include "config/SystemFailure.hpp"
 
 namespace ehlsim {
 
@@ -47,7 +47,12 @@ nlohmann::json read_run_json(const std::filesystem::path& path) {
   errno = 0;
   std::ifstream in(path);  // libstdc++ opens with fopen, which sets errno
   if (!in) throw_unreadable_input(path, errno != 0 ? errno : EIO);
-  return parse_range_checked_json(in, path.string());
+  try {
+    return parse_range_checked_json(in, path.string());
+  } catch (const std::ios_base::failure&) {
+    // A read that failed (EIO) was "basic_filebuf::underflow error reading the file", no path.
+    throw_unreadable_input(path, errno != 0 ? errno : EIO);
+  }
 }
 
 namespace {
