@@ -48,6 +48,7 @@
 #include "io/CsvWriter.hpp"
 #include "io/Interrupt.hpp"
 #include "io/MemoryGuard.hpp"
+#include "io/ProgramInfo.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
@@ -812,13 +813,12 @@ int run_study(const StudyOptions& options) {
 
   auto entries = case_entries(plan.cases);
   if (const int* code = std::get_if<int>(&entries)) return *code;
-  nlohmann::json summary = {
-      {"program", {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "study"}}},
-      {"grid", options.grid},
-      {"rolling_grid", options.rolling_grid},
-      {"L", kStudyL},
-      {"overrides", options.overrides},
-      {"cases", std::move(std::get<nlohmann::json>(entries))}};
+  nlohmann::json summary = {{"program", program_json("study")},
+                            {"grid", options.grid},
+                            {"rolling_grid", options.rolling_grid},
+                            {"L", kStudyL},
+                            {"overrides", options.overrides},
+                            {"cases", std::move(std::get<nlohmann::json>(entries))}};
   bool ok =
       std::ranges::all_of(plan.cases, [](const Case& c) { return c.exit_code == cli::kExitOk; });
   write_dry_reference(out / "dry.csv", plan.reference);

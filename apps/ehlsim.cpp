@@ -51,6 +51,7 @@
 #include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/ObserverChain.hpp"
+#include "io/ProgramInfo.hpp"
 #include "io/RunAnalysis.hpp"
 #include "io/RunDirectory.hpp"
 #include "io/RunOutput.hpp"
@@ -558,7 +559,7 @@ int run_spike(const SpikeOptions& options) {
 int run(int argc, char** argv) {
   CLI::App app{"ehlsim: lubricated ball impact on a flat (elastohydrodynamic lubrication)",
                "ehlsim"};
-  app.set_version_flag("--version", std::string("ehlsim ") + EHLSIM_VERSION);
+  app.set_version_flag("--version", program_text());
   app.require_subcommand(1);
 
   ImpactOptions impact;

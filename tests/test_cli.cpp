@@ -2,6 +2,7 @@
 // --help / --version, and one tiny real run.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <netcdf.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -436,7 +437,8 @@ TEST(Cli, RunningOutOfMemorySaysSo) {
 TEST(Cli, VersionAndHelp) {
   const Result version = ehlsim("--version");
   EXPECT_EQ(version.exit_code, 0);
-  EXPECT_EQ(version.out, std::string("ehlsim ") + EHLSIM_VERSION + "\n");
+  EXPECT_EQ(version.out.rfind(std::string("ehlsim ") + EHLSIM_VERSION + " (revision ", 0), 0u)
+      << version.out;
   const Result help = ehlsim("impact --help");
   EXPECT_EQ(help.exit_code, 0);
   for (const char* text : {"--set", "--out", "--quiet", "case.M = 100  (float, > 0)",
@@ -467,6 +469,30 @@ TEST(Cli, UsageDocumentsTheHelpVerbatim) {
 Result tiny_run(const fs::path& run, const std::string& options) {
   return ehlsim("impact --quiet --set grid.points=33 --set solver.coarsest_points=9 " + options +
                 " --out " + quote(run.string()));
+}
+
+TEST(Cli, EveryOutputNamesTheBinaryThatWroteIt) {
+  // run.json's program and fields.nc's source name the revision --version does.
+  const Result version = ehlsim("--version");
+  ASSERT_EQ(version.exit_code, 0);
+  const std::string prefix = "ehlsim " EHLSIM_VERSION " (revision ";
+  ASSERT_EQ(version.out.rfind(prefix, 0), 0u) << version.out;
+  ASSERT_TRUE(version.out.ends_with(")\n")) << version.out;
+  const std::string revision =
+      version.out.substr(prefix.size(), version.out.size() - prefix.size() - 2);
+  TempDir dir;
+  ASSERT_EQ(tiny_run(dir / "run", "--set time.T_end=0.2").exit_code, 0);
+  const nlohmann::json run = nlohmann::json::parse(read_file(dir / "run" / "run.json"));
+  EXPECT_EQ(run.at("program").at("revision"), revision);
+  EXPECT_EQ(run.at("program").at("command"), "impact");
+  int ncid = -1;
+  ASSERT_EQ(nc_open((dir / "run" / "fields.nc").c_str(), NC_NOWRITE, &ncid), NC_NOERR);
+  std::size_t length = 0;
+  ASSERT_EQ(nc_inq_attlen(ncid, NC_GLOBAL, "source", &length), NC_NOERR);
+  std::string source(length, '\0');
+  ASSERT_EQ(nc_get_att_text(ncid, NC_GLOBAL, "source", source.data()), NC_NOERR);
+  nc_close(ncid);
+  EXPECT_EQ(source + "\n", version.out);
 }
 
 TEST(Cli, AnOutNameMustLeaveRoomForTheFilesBesideIt) {

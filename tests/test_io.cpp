@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -47,6 +48,7 @@
 #include "io/IsolatedIo.hpp"
 #include "io/MemoryGuard.hpp"
 #include "io/NetcdfStatus.hpp"
+#include "io/ProgramInfo.hpp"
 #include "io/ProgressLine.hpp"
 #include "io/RangeCheckedJson.hpp"
 #include "io/RunDirectory.hpp"
@@ -197,6 +199,35 @@ std::string text_attribute(int ncid, int var, const char* name) {
   return value;
 }
 
+TEST(ProgramInfo, NamesTheCommitItWasBuiltFromAndWhatWithIt) {
+  // Outputs of another revision, compiler or FFTW may differ in their last
+  // bits: each names the binary that wrote it.
+  const std::string revision(source_revision());
+  ASSERT_FALSE(revision.empty());
+  EXPECT_EQ(program_text(), "ehlsim " EHLSIM_VERSION " (revision " + revision + ")");
+  const nlohmann::json program = program_json("impact");
+  EXPECT_EQ(program.at("revision"), revision);
+  EXPECT_EQ(program.at("command"), "impact");
+  EXPECT_EQ(program.at("version"), EHLSIM_VERSION);
+  const nlohmann::json& build = program.at("build");
+  EXPECT_EQ(build.at("fftw").get<std::string>().rfind("fftw-3.", 0), 0u) << build.dump();
+  const std::string netcdf = build.at("netcdf");
+  EXPECT_EQ(netcdf.rfind("4.", 0), 0u) << build.dump();
+  EXPECT_EQ(netcdf.find(' '), std::string::npos) << "the version alone: " << netcdf;
+  EXPECT_FALSE(build.at("compiler").get<std::string>().empty());
+  EXPECT_FALSE(build.at("type").get<std::string>().empty());
+  // Built from a git checkout: a commit of it, not "unknown".
+  const fs::path source = ehlsim::testing::source_dir();
+  const std::string git = "git -C '" + source.string() + "' ";
+  if (std::system((git + "rev-parse HEAD > /dev/null 2>&1").c_str()) != 0)
+    GTEST_SKIP() << "no git checkout (or no git) to check the revision against";
+  constexpr std::string_view kDirty = "-dirty";
+  std::string commit = revision;
+  if (commit.ends_with(kDirty)) commit.resize(commit.size() - kDirty.size());
+  const std::string command = git + "cat-file -e '" + commit + "^{commit}' 2> /dev/null";
+  EXPECT_EQ(std::system(command.c_str()), 0) << "no commit " << commit << " in " << source;
+}
+
 TEST(Writers, NetcdfRoundTrip) {
   TempDir dir;
   const Grid2D grid(9, 1.5);
@@ -281,8 +312,9 @@ TEST(Writers, NetcdfRoundTrip) {
   EXPECT_EQ(text_attribute(ncid, var, "axis"), "<missing>");
 
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "Conventions"), "CF-1.8");
-  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "source"), std::string("ehlsim ") + EHLSIM_VERSION);
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "source"), program_text());
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "ehlsim_version"), EHLSIM_VERSION);
+  EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "ehlsim_revision"), source_revision());
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "lubricant_viscosity"), "barus");
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "body_elastic"), "true");
   EXPECT_EQ(text_attribute(ncid, NC_GLOBAL, "time_T_end"), "none");

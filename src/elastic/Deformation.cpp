@@ -689,4 +689,6 @@ std::unique_ptr<DeformationOperator> make_deformation(const Grid2D& grid, bool u
   return std::make_unique<DirectDeformation>(grid);
 }
 
+const char* fft_library_version() { return fftw_version; }
+
 }  // namespace ehlsim

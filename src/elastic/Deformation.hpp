@@ -106,4 +106,9 @@ class FftDeformation final : public DeformationOperator {
 [[nodiscard]] std::unique_ptr<DeformationOperator> make_deformation(const Grid2D& grid,
                                                                     bool use_fft);
 
+/// The FFT library's own version line ("fftw-3.3.10-sse2-avx" with Debian's
+/// FFTW): the same binary and input give other bits with another FFTW or
+/// CPU (docs/usage.md, "Reproducibility"), so run.json records it.
+[[nodiscard]] const char* fft_library_version();
+
 }  // namespace ehlsim

@@ -12,6 +12,7 @@
 
 #include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
+#include "io/ProgramInfo.hpp"
 
 namespace ehlsim {
 
@@ -119,9 +120,10 @@ void put_global_attributes(const NcFile& nc, const FieldLayout& layout,
                            const nlohmann::json& parameters) {
   put_text(nc, NC_GLOBAL, "Conventions", kConventions);
   put_text(nc, NC_GLOBAL, "title", layout.title);
-  put_text(nc, NC_GLOBAL, "source", std::string("ehlsim ") + EHLSIM_VERSION);
+  put_text(nc, NC_GLOBAL, "source", program_text());
   put_text(nc, NC_GLOBAL, "references", kReferences);
   put_text(nc, NC_GLOBAL, "ehlsim_version", EHLSIM_VERSION);
+  put_text(nc, NC_GLOBAL, "ehlsim_revision", std::string(source_revision()));
   put_text(nc, NC_GLOBAL, "ehlsim_parameters", parameters.dump());
   const nlohmann::json flat = flatten_parameters(parameters);
   for (auto it = flat.begin(); it != flat.end(); ++it) {

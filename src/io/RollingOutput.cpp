@@ -9,6 +9,7 @@
 #include "io/AtomicFile.hpp"
 #include "io/CsvWriter.hpp"
 #include "io/FieldWriter.hpp"
+#include "io/ProgramInfo.hpp"
 #include "reynolds/LineRelaxation.hpp"
 #include "rolling/FilmFormula.hpp"
 
@@ -86,7 +87,7 @@ void write_rolling_run(const std::filesystem::path& dir, const RollingConfig& co
   write_profiles(dir, result);
   fields.commit();
   nlohmann::json j;
-  j["program"] = {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "rolling"}};
+  j["program"] = program_json("rolling");
   if (!invocation.empty()) j["invocation"] = invocation;
   j["parameters"] = parameters;
   j["grid"] = {{"points", result.grid.n},

@@ -10,6 +10,7 @@
 #include "config/Parameters.hpp"
 #include "impact/ImpactProblem.hpp"
 #include "io/AtomicFile.hpp"
+#include "io/ProgramInfo.hpp"
 
 namespace ehlsim {
 
@@ -96,7 +97,7 @@ nlohmann::json RunOutput::run_json(const RunSummary& s) const {
   using nlohmann::json;
   const double wall = elapsed_seconds();
   json j;
-  j["program"] = {{"name", "ehlsim"}, {"version", EHLSIM_VERSION}, {"command", "impact"}};
+  j["program"] = program_json("impact");
   if (!invocation_.empty()) j["invocation"] = invocation_;
   j["parameters"] = parameters_;
   j["derived"] = {{"M", config_.M},
