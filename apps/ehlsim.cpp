@@ -368,6 +368,7 @@ int read_restart_checkpoint(const ImpactOptions& options, const ImpactConfig& co
   } catch (const SystemFailure&) {
     throw;  // exit 1: "pipe: Too many open files" is no damaged checkpoint
   } catch (const std::runtime_error& e) {
+    throw_if_machine_cannot_read(options.restart_file);  // a failing disk: exit 1
     print_error(e.what());  // names the file, and the field of a damaged one
     return kExitBadInput;
   }

@@ -729,7 +729,28 @@ struct InjectedEio {
   /// Only the writes at this file offset count, one each (`after` of them
   /// succeed); empty: every byte counts.
   std::string offset = {};
+  /// The reads that reach this file offset fail instead (the writes pass); empty: none.
+  std::string read_at = {};
 };
+
+/// Starts ehlsim `args` with `eio` injected (tests/support/eio_shim.cpp preloaded).
+Child start_with_eio(const std::vector<std::string>& args, const fs::path& capture,
+                     const InjectedEio& eio) {
+  // A sanitized ehlsim's ASan runtime refuses to start behind a preloaded
+  // library unless told that this is expected.
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string asan_options =
+      (asan != nullptr && *asan != '\0' ? std::string(asan) + ":" : std::string()) +
+      "verify_asan_link_order=0";
+  return start(args, capture, "",
+               {{"LD_PRELOAD", eio_shim()},
+                {"EHLSIM_TEST_EIO_PATH", eio.file},
+                {"EHLSIM_TEST_EIO_AFTER", std::to_string(eio.after)},
+                {"EHLSIM_TEST_EIO_FSYNC", eio.on_fsync ? "1" : "0"},
+                {"EHLSIM_TEST_EIO_OFFSET", eio.offset},
+                {"EHLSIM_TEST_EIO_READ_AT", eio.read_at},
+                {"ASAN_OPTIONS", asan_options}});
+}
 
 /// Offset 0 of a NetCDF-4 file: HDF5 writes its superblock there when it
 /// creates or opens a file, when it ends the definitions, and twice when it
@@ -751,20 +772,8 @@ Result with_injected_eio(const fs::path& run, const std::string& options, const 
   std::istringstream words(kEioRun + " " + options);
   for (std::string word; words >> word;) args.push_back(word);
   args.insert(args.end(), {"--out", run.string()});
-  // A sanitized ehlsim's ASan runtime refuses to start behind a preloaded
-  // library unless told that this is expected.
-  const char* asan = std::getenv("ASAN_OPTIONS");
-  const std::string asan_options =
-      (asan != nullptr && *asan != '\0' ? std::string(asan) + ":" : std::string()) +
-      "verify_asan_link_order=0";
   const TempDir capture("eio");
-  const Child c = start(args, capture / "impact", "",
-                        {{"LD_PRELOAD", eio_shim()},
-                         {"EHLSIM_TEST_EIO_PATH", eio.file},
-                         {"EHLSIM_TEST_EIO_AFTER", std::to_string(eio.after)},
-                         {"EHLSIM_TEST_EIO_FSYNC", eio.on_fsync ? "1" : "0"},
-                         {"EHLSIM_TEST_EIO_OFFSET", eio.offset},
-                         {"ASAN_OPTIONS", asan_options}});
+  const Child c = start_with_eio(args, capture / "impact", eio);
   Result r = result_of(c);
   const std::string pid = ".part-" + std::to_string(c.pid) + "/";
   for (std::size_t at = r.err.find(pid); at != std::string::npos; at = r.err.find(pid, at))
@@ -795,6 +804,46 @@ void expect_eio_case(const std::string& tag, const InjectedEio& eio, const std::
 void expect_eio_case(const std::string& tag, const InjectedEio& eio, const std::string& options,
                      const std::string& message) {
   expect_eio_case(tag, eio, options, std::vector<std::string>{message});
+}
+
+TEST(Lifecycle, AnInputOnAFailingDiskIsTheMachinesFailureNotADamagedFile) {
+  // HDF5 says "NetCDF: HDF error" of a read that failed with EIO, as of
+  // damaged bytes: that was exit 2, bad input.  Now the file is read again,
+  // and a disk that fails is the machine's failure: exit 1, saying so.
+  const TempDir work("eio-read");
+  const fs::path run = work / "run";
+  ASSERT_EQ(ehlsim("impact " + kEioRun + " --out " + quote(run.string())).exit_code, 0);
+  // A run that fails keeps its checkpoint: at step 40 (T = 3.75) of 42.
+  const std::string checkpointed = "--quiet --set grid.points=33 --set output.checkpoint_every=20";
+  ASSERT_EQ(ehlsim("impact " + checkpointed + " --set time.max_steps=42 --out " +
+                   quote((work / "failed").string()))
+                .exit_code,
+            1);
+  const fs::path checkpoint = work / "failed.checkpoint.nc";
+  std::vector<std::string> restart = {"impact"};
+  std::istringstream words(checkpointed + " --set time.T_end=3.8");
+  for (std::string word; words >> word;) restart.push_back(word);
+  restart.insert(restart.end(),
+                 {"--restart", checkpoint.string(), "--out", (work / "again").string()});
+  struct Case {
+    std::vector<std::string> args;
+    fs::path file;
+  };
+  const std::vector<Case> cases = {{{"spike", "--quiet", run.string()}, run / "fields.nc"},
+                                   {restart, checkpoint}};
+  for (const Case& c : cases) {
+    const std::vector<std::string> before = contents(run);
+    // From the middle of the file on, past its superblock and first metadata.
+    const auto middle = std::to_string(fs::file_size(c.file) / 2);
+    const Result r = result_of(
+        start_with_eio(c.args, work / "capture", {.file = c.file.filename(), .read_at = middle}));
+    EXPECT_EQ(r.exit_code, 1) << c.args.front();
+    EXPECT_EQ(r.err, "ehlsim: error: cannot read '" + c.file.string() + "': Input/output error\n");
+    EXPECT_EQ(contents(run), before);
+    EXPECT_FALSE(fs::exists(work / "again"));
+    // The same command on a sound disk reads the same file (the case's own check).
+    EXPECT_EQ(result_of(start(c.args, work / "plain")).exit_code, 0) << c.args.front();
+  }
 }
 
 TEST(Lifecycle, AnIOErrorInFieldsNcEndsWithOneLineNamingIt) {

@@ -24,4 +24,10 @@ class SystemFailure : public std::runtime_error {
 /// is_system_failure(error), else ConfigError (a missing permission, ...).
 [[noreturn]] void throw_unreadable_input(const std::filesystem::path& path, int error);
 
+/// Reads the regular file `path` to its end and throws SystemFailure "cannot
+/// read '<path>': <strerror>" where the machine cannot (EIO, ...); returns
+/// otherwise.  For an input a library found damaged ("NetCDF: HDF error"):
+/// its bytes may be sound and the disk under them failing.
+void throw_if_machine_cannot_read(const std::filesystem::path& path);
+
 }  // namespace ehlsim

@@ -172,6 +172,7 @@ std::unique_ptr<FieldReader> open_fields(const std::filesystem::path& path) {
   } catch (const SystemFailure&) {
     throw;  // exit 1: out of descriptors ("pipe: Too many open files") is no bad file
   } catch (const std::runtime_error& e) {
+    throw_if_machine_cannot_read(path);  // "NetCDF: HDF error" over a failing disk
     throw ConfigError(e.what());
   }
   // Every run stores its last step: an empty file gave CSV headers alone, exit 0.
@@ -217,14 +218,16 @@ void check_snapshot(const std::filesystem::path& path, std::size_t k, double T, 
   }
 }
 
-/// Snapshot `k`'s pressure; ConfigError (bad input) when the file's data
-/// cannot be read (bytes of a fields.nc overwritten: "NetCDF: HDF error").
-Field read_pressure(const FieldReader& fields, std::size_t k) {
+/// Snapshot `k`'s pressure from `fields`, read from `path`; ConfigError (bad
+/// input) when the file's data cannot be read (bytes of a fields.nc
+/// overwritten: "NetCDF: HDF error"), SystemFailure when the disk cannot.
+Field read_pressure(const FieldReader& fields, const std::filesystem::path& path, std::size_t k) {
   try {
     return fields.pressure(k);
   } catch (const SystemFailure&) {
     throw;
   } catch (const std::runtime_error& e) {
+    throw_if_machine_cannot_read(path);
     throw ConfigError(e.what());
   }
 }
@@ -277,7 +280,7 @@ RunAnalysisReport write_analysis(const std::filesystem::path& run_dir,
     const double T = fields->times()[k];
     // A signal: stop before anything is published (the staging directory goes).
     if (InterruptGuard::received() != 0) throw RunInterrupted(static_cast<int>(k), T);
-    const Field P = read_pressure(*fields, k);
+    const Field P = read_pressure(*fields, run_dir / RunOutput::kFieldsFile, k);
     check_snapshot(run_dir / RunOutput::kFieldsFile, k, T, previous, P);
     previous = T;
     const SpikeAnalysis analysis = analyze_spike(order, P.span(), settings);

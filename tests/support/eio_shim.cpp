@@ -22,7 +22,13 @@
 //   EHLSIM_TEST_EIO_FSYNC  "1": fsync and fdatasync of the matching files fail
 //                          instead (the writes succeed), as when the kernel's
 //                          writeback of the page cache found the disk failing.
+//   EHLSIM_TEST_EIO_READ_AT a file offset: the reads of the matching files that
+//                          reach it fail instead (the writes succeed), as
+//                          from a bad sector there.  Unset or empty: reads
+//                          are passed on.
 //
+// The calls that read are read and pread (pread64, readv, preadv likewise): HDF5's
+// sec2 driver reads with pread; stdio's fread, as fwrite, cannot be replaced.
 // The calls that write into files in ehlsim's process: write and writev
 // (libstdc++'s std::ofstream: the CSV files, run.json), pwrite (HDF5's sec2
 // driver under NetCDF-4: fields.nc, checkpoint.nc), pwrite64 and pwritev (the
@@ -79,26 +85,36 @@ bool fsync_fails() {
   return flag != nullptr && std::strcmp(flag, "1") == 0;
 }
 
+/// The offset EHLSIM_TEST_EIO_READ_AT, or -1 when the reads pass.
+long long read_failure_offset() {
+  const char* at = std::getenv("EHLSIM_TEST_EIO_READ_AT");
+  return at == nullptr || *at == '\0' ? -1 : std::atoll(at);
+}
+
 /// A write(2) or writev(2): it starts where the file's position is.
 constexpr off64_t kAtPosition = -1;
+
+/// `offset`, or the position of `fd` for kAtPosition (errno kept).
+off64_t resolved(int fd, off64_t offset) {
+  if (offset != kAtPosition) return offset;
+  const int saved = errno;
+  offset = lseek64(fd, 0, SEEK_CUR);
+  errno = saved;
+  return offset;
+}
 
 /// What a write of `bytes` at `offset` takes of the budget: its bytes, or with
 /// EHLSIM_TEST_EIO_OFFSET one write if it starts there and nothing otherwise.
 long long cost(int fd, std::size_t bytes, off64_t offset) {
   const char* at = std::getenv("EHLSIM_TEST_EIO_OFFSET");
   if (at == nullptr || *at == '\0') return static_cast<long long>(bytes);
-  if (offset == kAtPosition) {
-    const int saved = errno;
-    offset = lseek64(fd, 0, SEEK_CUR);
-    errno = saved;
-  }
-  return offset == std::atoll(at) ? 1 : 0;
+  return resolved(fd, offset) == std::atoll(at) ? 1 : 0;
 }
 
 /// Whether a write of `bytes` into `fd` at `offset` fails (EIO set); counts it
 /// if not.
 bool fails(int fd, std::size_t bytes, off64_t offset) {
-  if (fsync_fails() || !matches(fd)) return false;
+  if (fsync_fails() || read_failure_offset() >= 0 || !matches(fd)) return false;
   const char* after = std::getenv("EHLSIM_TEST_EIO_AFTER");
   const long long budget = after == nullptr ? 0 : std::atoll(after);
   const long long taken = cost(fd, bytes, offset);
@@ -108,6 +124,16 @@ bool fails(int fd, std::size_t bytes, off64_t offset) {
   }
   written += taken;
   return false;
+}
+
+/// Whether a read of `bytes` from `fd` at `offset` (kAtPosition: where the
+/// file's position is) fails (EIO set): it reaches EHLSIM_TEST_EIO_READ_AT.
+bool read_fails(int fd, std::size_t bytes, off64_t offset) {
+  const long long at = read_failure_offset();
+  if (at < 0 || bytes == 0 || !matches(fd)) return false;
+  if (resolved(fd, offset) + static_cast<off64_t>(bytes) <= at) return false;
+  errno = EIO;
+  return true;
 }
 
 std::size_t total(const iovec* iov, int count) {
@@ -152,6 +178,31 @@ ssize_t writev(int fd, const iovec* iov, int count) {
 ssize_t pwritev(int fd, const iovec* iov, int count, off_t offset) {
   static auto* real = next<ssize_t(int, const iovec*, int, off_t)>("pwritev");
   return fails(fd, total(iov, count), offset) ? -1 : real(fd, iov, count, offset);
+}
+
+ssize_t read(int fd, void* buffer, std::size_t count) {
+  static auto* real = next<ssize_t(int, void*, std::size_t)>("read");
+  return read_fails(fd, count, kAtPosition) ? -1 : real(fd, buffer, count);
+}
+
+ssize_t pread(int fd, void* buffer, std::size_t count, off_t offset) {
+  static auto* real = next<ssize_t(int, void*, std::size_t, off_t)>("pread");
+  return read_fails(fd, count, offset) ? -1 : real(fd, buffer, count, offset);
+}
+
+ssize_t pread64(int fd, void* buffer, std::size_t count, off64_t offset) {
+  static auto* real = next<ssize_t(int, void*, std::size_t, off64_t)>("pread64");
+  return read_fails(fd, count, offset) ? -1 : real(fd, buffer, count, offset);
+}
+
+ssize_t readv(int fd, const iovec* iov, int count) {
+  static auto* real = next<ssize_t(int, const iovec*, int)>("readv");
+  return read_fails(fd, total(iov, count), kAtPosition) ? -1 : real(fd, iov, count);
+}
+
+ssize_t preadv(int fd, const iovec* iov, int count, off_t offset) {
+  static auto* real = next<ssize_t(int, const iovec*, int, off_t)>("preadv");
+  return read_fails(fd, total(iov, count), offset) ? -1 : real(fd, iov, count, offset);
 }
 
 int fsync(int fd) {
