@@ -362,8 +362,11 @@ void forward_signal(std::map<pid_t, Case*>& running) {
 /// killed: a figure script that ignored SIGTERM kept the study waiting for as
 /// long as it ran.
 constexpr auto kSignalGrace = std::chrono::seconds(5);
-/// How often the study looks whether the child has ended meanwhile: short
-/// against kSignalGrace, long against a system call.
+/// How often the study looks whether a child has ended or a signal come:
+/// short against kSignalGrace, long against a system call.  The study polls
+/// rather than block in waitpid: a signal that came just before the call
+/// (after the flag was looked at) did not end the wait, and a figure script
+/// that ignored it kept the study waiting for ever.
 constexpr auto kSignalPoll = std::chrono::milliseconds(50);
 
 /// Waits for the group leader `pid` (spawn_group_leader), passing a signal
@@ -376,8 +379,7 @@ int wait_for_group(pid_t pid) {
   std::optional<std::chrono::steady_clock::time_point> signalled_at;
   for (;;) {
     siginfo_t ended{};
-    const int waited = waitid(P_PID, static_cast<id_t>(pid), &ended,
-                              WEXITED | WNOWAIT | (signalled_at ? WNOHANG : 0));
+    const int waited = waitid(P_PID, static_cast<id_t>(pid), &ended, WEXITED | WNOWAIT | WNOHANG);
     if (waited == 0 && ended.si_pid == pid) {
       kill(-pid, SIGKILL);  // while the leader, not yet reaped, holds the group's id
       waitpid(pid, &status, 0);
@@ -391,7 +393,7 @@ int wait_for_group(pid_t pid) {
     } else if (signalled_at && std::chrono::steady_clock::now() - *signalled_at > kSignalGrace) {
       kill(-pid, SIGKILL);
     }
-    if (signalled_at) std::this_thread::sleep_for(kSignalPoll);
+    std::this_thread::sleep_for(kSignalPoll);
   }
 }
 
@@ -412,6 +414,7 @@ std::vector<std::string> case_warnings(const Case& c) {
 void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary) {
   std::map<pid_t, Case*> running;
   std::size_t next = 0;
+  bool waited_before = false;
   while (next < cases.size() || !running.empty()) {
     while (next < cases.size() && static_cast<int>(running.size()) < jobs &&
            InterruptGuard::received() == 0) {
@@ -436,12 +439,14 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
       print_out("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
       std::fflush(stdout);
     }
-    if (running.empty()) break;  // interrupted before the next start
-    forward_signal(running);     // one that came while a case was starting
+    if (running.empty()) break;                        // interrupted before the next start
+    forward_signal(running);                           // one that came while a case was starting
+    if (!waited_before) stop_here_for_tests("cases");  // just before the first wait
+    waited_before = true;
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0 && errno == EINTR) {
-      forward_signal(running);
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid == 0 || (pid < 0 && errno == EINTR)) {
+      std::this_thread::sleep_for(kSignalPoll);
       continue;
     }
     if (pid < 0) throw std::runtime_error(fmt::format("waitpid: {}", std::strerror(errno)));
@@ -612,6 +617,7 @@ int draw_figures(const std::string& python, const fs::path& script, const fs::pa
     fs::create_directory(staging);
     const pid_t pid =
         spawn_group_leader(python, {python, script.string(), out.string(), staging.string()}, log);
+    stop_here_for_tests("figures");
     code = wait_for_group(pid);
     // The script's last act is summary.json: a script that exits 0 without
     // it drew nothing, and must not replace the earlier figures (--python

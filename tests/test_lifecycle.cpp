@@ -1584,6 +1584,49 @@ TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   EXPECT_FALSE(fs::exists(study / "figures"));
 }
 
+TEST(Lifecycle, ASignalJustBeforeTheStudyWaitsForItsScriptEndsIt) {
+  // A SIGTERM that comes just after the script started (the study stopped at
+  // the hook, before its first wait) ends the study and the script that
+  // ignores it within the grace.  The study looks at its signal between polls
+  // now, never blocked in waitid (the race below, for the cases).
+  TempDir work;
+  const fs::path study = work / "study";
+  const fs::path script = work / "figures.sh";
+  std::ofstream(script) << "trap '' TERM INT HUP\n"
+                        << "while :; do sleep 1; done\n";
+  const Child c = start(tiny_study_with_script(study, script), work / "study", "figures");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const auto signalled = std::chrono::steady_clock::now();
+  const Result r = resume(c, SIGTERM);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  EXPECT_LT(seconds, 30.0);  // the grace of 5 s, then SIGKILL
+  EXPECT_FALSE(fs::exists(study / "figures"));
+}
+
+TEST(Lifecycle, ASignalJustBeforeTheStudyWaitsForItsCasesStopsThem) {
+  // The study blocked in waitpid and passed a signal on to its cases when the
+  // call returned: one that came just before the call (here: while the study
+  // is stopped at the hook) waited for the first case to end by itself, 76 s
+  // here (on 1025^2 many minutes).  The cases run to T = 4 on 513^2.
+  TempDir work;
+  const fs::path study = work / "study";
+  std::vector<std::string> args = tiny_study(study);
+  *std::find(args.begin(), args.end(), "33") = "513";
+  *std::find(args.begin(), args.end(), "time.T_end=0.2") = "time.T_end=4";
+  const Child c = start(args, work / "study", "cases");
+  ASSERT_TRUE(wait_until_stopped(c));
+  const auto signalled = std::chrono::steady_clock::now();
+  const Result r = resume(c, SIGTERM);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
+  EXPECT_LT(seconds, 20.0) << r.out;  // a case ends within a cycle of its signal
+  EXPECT_NE(r.out.find("stopped  M = 100"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(study / "study.json"));
+}
+
 /// Whether `path` (a /proc entry) is gone within `limit`.
 bool gone_within(const fs::path& path, std::chrono::seconds limit) {
   const auto deadline = std::chrono::steady_clock::now() + limit;
