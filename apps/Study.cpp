@@ -407,10 +407,54 @@ std::vector<std::string> case_warnings(const Case& c) {
   }
 }
 
-/// Runs `cases`, `jobs` at a time.  The first case that completes has replaced
-/// its run directory: `stale_summary` (the study.json of an earlier study,
-/// which described the run replaced) goes then, so that no summary stands
-/// beside runs it does not describe.
+/// Starts case `c` (its pid set); false, with the case failed and said so,
+/// when it cannot be started.
+bool start_case(Case& c) {
+  // argv[0] the binary's path: the resume command in a case's log works as it is.
+  std::vector<std::string> args = {fs::read_symlink(kSelf).string(), c.command, "--out",
+                                   c.dir.string()};
+  for (const std::string& o : c.overrides) {
+    args.push_back("--set");
+    args.push_back(o);
+  }
+  c.start = std::chrono::steady_clock::now();
+  try {
+    c.pid = spawn(kSelf, args, c.log);
+  } catch (const std::runtime_error& e) {
+    c.exit_code = cli::kExitFailure;
+    print_out("  FAILED   {}: {}\n", case_label(c), e.what());
+    return false;
+  }
+  print_out("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
+  std::fflush(stdout);
+  return true;
+}
+
+/// Records and reports how case `c` ended (its wait status `status`).  The
+/// first case that completes has replaced its run directory: `stale_summary`
+/// (the study.json of an earlier study, which described the run replaced)
+/// goes then, so that no summary stands beside runs it does not describe.
+void report_ended(Case& c, int status, const fs::path& stale_summary) {
+  c.exit_code = exit_code_of(status);
+  c.wall_seconds = seconds_since(c.start);
+  if (c.exit_code == kExitOk) {
+    std::error_code ec;  // already gone after the first case
+    fs::remove(stale_summary, ec);
+    print_out("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
+    c.warnings = case_warnings(c);
+    for (const std::string& warning : c.warnings)
+      print_out("  warning  {}: {}\n", case_label(c), warning);
+  } else if (c.signalled && c.exit_code > kExitSignalBase) {
+    print_out("  stopped  {} after {:.1f} s by {}\n", case_label(c), c.wall_seconds,
+              signal_name(c.exit_code - kExitSignalBase));
+  } else {
+    print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
+              c.exit_code, failure_reason(c.log, c.exit_code));
+  }
+  std::fflush(stdout);
+}
+
+/// Runs `cases`, `jobs` at a time (report_ended says what `stale_summary` is).
 void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary) {
   std::map<pid_t, Case*> running;
   std::size_t next = 0;
@@ -419,25 +463,7 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
     while (next < cases.size() && static_cast<int>(running.size()) < jobs &&
            InterruptGuard::received() == 0) {
       Case& c = cases[next++];
-      // argv[0] the binary's path: the resume command in a case's log works as it is.
-      std::vector<std::string> args = {fs::read_symlink(kSelf).string(), c.command, "--out",
-                                       c.dir.string()};
-      for (const std::string& o : c.overrides) {
-        args.push_back("--set");
-        args.push_back(o);
-      }
-      c.start = std::chrono::steady_clock::now();
-      try {
-        c.pid = spawn(kSelf, args, c.log);
-      } catch (const std::runtime_error& e) {
-        // The cases already running are still waited for.
-        c.exit_code = cli::kExitFailure;
-        print_out("  FAILED   {}: {}\n", case_label(c), e.what());
-        continue;
-      }
-      running[c.pid] = &c;
-      print_out("  started  {} (pid {}, log {})\n", case_label(c), c.pid, c.log.string());
-      std::fflush(stdout);
+      if (start_case(c)) running[c.pid] = &c;  // else the others are still waited for
     }
     if (running.empty()) break;                        // interrupted before the next start
     forward_signal(running);                           // one that came while a case was starting
@@ -454,23 +480,7 @@ void run_cases(std::vector<Case>& cases, int jobs, const fs::path& stale_summary
     if (it == running.end()) continue;
     Case& c = *it->second;
     running.erase(it);
-    c.exit_code = exit_code_of(status);
-    c.wall_seconds = seconds_since(c.start);
-    if (c.exit_code == kExitOk) {
-      std::error_code ec;  // already gone after the first case
-      fs::remove(stale_summary, ec);
-      print_out("  finished {} in {:.1f} s\n", case_label(c), c.wall_seconds);
-      c.warnings = case_warnings(c);
-      for (const std::string& warning : c.warnings)
-        print_out("  warning  {}: {}\n", case_label(c), warning);
-    } else if (c.signalled && c.exit_code > kExitSignalBase) {
-      print_out("  stopped  {} after {:.1f} s by {}\n", case_label(c), c.wall_seconds,
-                signal_name(c.exit_code - kExitSignalBase));
-    } else {
-      print_out("  FAILED   {} after {:.1f} s (exit {}): {}\n", case_label(c), c.wall_seconds,
-                c.exit_code, failure_reason(c.log, c.exit_code));
-    }
-    std::fflush(stdout);
+    report_ended(c, status, stale_summary);
   }
 }
 

@@ -1563,6 +1563,20 @@ TEST(Lifecycle, ASignalDuringTheFigureScriptLeavesTheEarlierFigures) {
             (std::set<std::string>{"fig1.png", "fig2.png", "summary.json"}));
 }
 
+/// How a study ended after SIGTERM: what it said, and the seconds it took.
+struct Ended {
+  Result result;
+  double seconds = 0.0;
+};
+
+/// Sends SIGTERM to `c` (and SIGCONT when it is `stopped` at a hook); how it ended.
+Ended ended_by_sigterm(const Child& c, bool stopped) {
+  const auto signalled = std::chrono::steady_clock::now();
+  Result r = stopped ? resume(c, SIGTERM) : (kill(c.pid, SIGTERM), result_of(c));
+  return {std::move(r),
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count()};
+}
+
 TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   // It kept the study waiting for as long as it ran.
   TempDir work;
@@ -1574,11 +1588,7 @@ TEST(Lifecycle, AFigureScriptThatIgnoresTheSignalIsKilled) {
   const std::vector<std::string> args = tiny_study_with_script(study, script);
   const Child c = start(args, work / "study");
   ASSERT_TRUE(wait_for_path(study / (".figures.part-" + std::to_string(c.pid)) / "fig1.png"));
-  const auto signalled = std::chrono::steady_clock::now();
-  kill(c.pid, SIGTERM);
-  const Result r = result_of(c);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  const auto [r, seconds] = ended_by_sigterm(c, false);
   EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
   EXPECT_LT(seconds, 30.0);  // the grace of 5 s, then SIGKILL
   EXPECT_FALSE(fs::exists(study / "figures"));
@@ -1596,10 +1606,7 @@ TEST(Lifecycle, ASignalJustBeforeTheStudyWaitsForItsScriptEndsIt) {
                         << "while :; do sleep 1; done\n";
   const Child c = start(tiny_study_with_script(study, script), work / "study", "figures");
   ASSERT_TRUE(wait_until_stopped(c));
-  const auto signalled = std::chrono::steady_clock::now();
-  const Result r = resume(c, SIGTERM);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  const auto [r, seconds] = ended_by_sigterm(c, true);
   EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
   EXPECT_LT(seconds, 30.0);  // the grace of 5 s, then SIGKILL
   EXPECT_FALSE(fs::exists(study / "figures"));
@@ -1617,10 +1624,7 @@ TEST(Lifecycle, ASignalJustBeforeTheStudyWaitsForItsCasesStopsThem) {
   *std::find(args.begin(), args.end(), "time.T_end=0.2") = "time.T_end=4";
   const Child c = start(args, work / "study", "cases");
   ASSERT_TRUE(wait_until_stopped(c));
-  const auto signalled = std::chrono::steady_clock::now();
-  const Result r = resume(c, SIGTERM);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  const auto [r, seconds] = ended_by_sigterm(c, true);
   EXPECT_EQ(r.exit_code, 143) << r.out << r.err;
   EXPECT_LT(seconds, 20.0) << r.out;  // a case ends within a cycle of its signal
   EXPECT_NE(r.out.find("stopped  M = 100"), std::string::npos) << r.out;
