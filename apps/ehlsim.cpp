@@ -344,7 +344,8 @@ nlohmann::json impact_invocation_json(const ImpactOptions& options,
   if (checkpoint)
     invocation["restart"] = {{"checkpoint", options.restart_file},
                              {"step", checkpoint->state.step},
-                             {"T", checkpoint->state.ball.T}};
+                             {"T", checkpoint->state.ball.T},
+                             {"revision", checkpoint->revision}};
   return invocation;
 }
 
@@ -457,6 +458,16 @@ void warn_of_replaced_checkpoint(const ImpactOptions& options, const ImpactConfi
       shell_word(checkpoint.string()))});
 }
 
+/// A checkpoint of another build continues with other rounding: said before the run starts.
+void warn_of_another_build(const ImpactOptions& options, const Checkpoint& checkpoint) {
+  if (checkpoint.revision == source_revision()) return;
+  cli::print_warnings({fmt::format(
+      "checkpoint '{}' was written by revision {}, this ehlsim is revision {}: the steps from "
+      "here on may differ in their last bits from those of an uninterrupted run",
+      cli::printable(options.restart_file), cli::printable(checkpoint.revision),
+      source_revision())});
+}
+
 int run_impact(const ImpactOptions& options) {
   // A signal during the set-up also ends the run cleanly, after its first step (main's guard).
   // Bad input throws ConfigError: exit 2 with its one line (main).
@@ -467,6 +478,7 @@ int run_impact(const ImpactOptions& options) {
   if (!options.restart_file.empty()) {
     const int code = read_restart_checkpoint(options, config, checkpoint);
     if (code != kExitOk) return code;
+    warn_of_another_build(options, *checkpoint);
   }
   // Locks DIR, refuses a busy or foreign one (exit 2), before any output.
   std::optional<RunDirectory> run_dir(std::in_place, options.out_dir);

@@ -13,6 +13,7 @@
 // process at a chosen point, so that a test can look and signal there.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <netcdf.h>
 #include <sys/mount.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -38,6 +39,7 @@
 #include <vector>
 
 #include "io/Checkpoint.hpp"
+#include "io/ProgramInfo.hpp"
 #include "support/MinimalRun.hpp"
 #include "support/RunEhlsim.hpp"
 #include "support/TempDir.hpp"
@@ -971,6 +973,42 @@ TEST(Lifecycle, SigchldIgnoredByTheLauncherDoesNotLoseTheChildren) {
 
 /// A failed run keeps its last checkpoint (named in the message) and does not
 /// touch the earlier run's checkpoint.nc.
+TEST(Lifecycle, ARestartNamesTheBuildOfItsCheckpointAndWarnsOfAnother) {
+  // Another build may round otherwise: a restart says so, and run.json names
+  // the build of the checkpoint beside the build of the run.
+  TempDir work;
+  const fs::path run = work / "run";
+  ASSERT_EQ(run_into(run, "--set output.checkpoint_every=2 --set time.max_steps=5").exit_code, 1);
+  const fs::path kept = work / "run.checkpoint.nc";
+  EXPECT_EQ(ehlsim::read_checkpoint(kept).revision, ehlsim::source_revision());
+  const fs::path other = work / "other.checkpoint.nc";
+  fs::copy_file(kept, other);
+  int ncid = -1;
+  ASSERT_EQ(nc_open(other.c_str(), NC_WRITE, &ncid), NC_NOERR);
+  ASSERT_EQ(nc_redef(ncid), NC_NOERR);
+  const std::string older = "0123456789ab";
+  ASSERT_EQ(nc_put_att_text(ncid, NC_GLOBAL, "ehlsim_revision", older.size(), older.c_str()),
+            NC_NOERR);
+  ASSERT_EQ(nc_close(ncid), NC_NOERR);
+  EXPECT_EQ(ehlsim::read_checkpoint(other).revision, older);  // the checksum does not cover it
+  // No checkpoints of their own: neither restart replaces the other's file.
+  const std::string restart = "--set output.checkpoint_every=0 --set time.T_end=0.5 --restart ";
+  for (const fs::path& checkpoint : {kept, other}) {
+    const Result r = run_into(run, restart + quote(checkpoint.string()));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::string warning =
+        "ehlsim: warning: checkpoint '" + checkpoint.string() + "' was written by revision " +
+        older + ", this ehlsim is revision " + std::string(ehlsim::source_revision()) +
+        ": the steps from here on may differ in their last bits from those of an uninterrupted "
+        "run\n";
+    EXPECT_EQ(r.err, checkpoint == other ? warning : "") << checkpoint;
+    const nlohmann::json json = nlohmann::json::parse(read_file(run / "run.json"));
+    EXPECT_EQ(json.at("invocation").at("restart").at("revision"),
+              checkpoint == other ? older : std::string(ehlsim::source_revision()));
+    EXPECT_EQ(json.at("program").at("revision"), ehlsim::source_revision());
+  }
+}
+
 TEST(Lifecycle, AFailedRunKeepsItsCheckpointAndTheEarlierRun) {
   TempDir work;
   const fs::path run = work / "run";

@@ -20,6 +20,7 @@
 #include "io/FieldWriter.hpp"
 #include "io/IsolatedIo.hpp"
 #include "io/NetcdfStatus.hpp"
+#include "io/ProgramInfo.hpp"
 
 namespace ehlsim {
 
@@ -355,6 +356,7 @@ void write_checkpoint_file(const std::filesystem::path& path, const ImpactState&
   nc.check(nc_put_att_int(nc.id, NC_GLOBAL, "format_version", NC_INT, 1, &kFormatVersion),
            "format_version");
   text("ehlsim_version", EHLSIM_VERSION);
+  text("ehlsim_revision", std::string(source_revision()));
   const std::string parameters_text = parameters.dump();
   text("ehlsim_parameters", parameters_text);
   for_each_scalar(state, [&](const char* name, double value) {
@@ -421,6 +423,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                         version, kFormatVersion));
   }
   Checkpoint c;
+  c.revision =
+      in.has_attribute("ehlsim_revision", NC_CHAR) ? in.text("ehlsim_revision") : "unknown";
   const std::string parameters_text = in.text("ehlsim_parameters");
   try {
     c.parameters = nlohmann::json::parse(parameters_text);

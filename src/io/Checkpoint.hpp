@@ -23,6 +23,10 @@ namespace ehlsim {
 struct Checkpoint {
   ImpactState state;
   nlohmann::json parameters;  ///< effective parameters of the run that wrote it
+  /// The source revision of the build that wrote it (io/ProgramInfo.hpp);
+  /// "unknown" for a checkpoint of a build that did not record it.  Not
+  /// covered by the checksum: it says where the file came from, not what it holds.
+  std::string revision;
 };
 
 inline constexpr const char* kCheckpointFile = "checkpoint.nc";
