@@ -31,6 +31,16 @@ void rewrite_attribute(const std::filesystem::path& path, const char* name, T va
   ASSERT_EQ(nc_close(id), NC_NOERR);
 }
 
+/// Rewrites the global text attribute `name` of a NetCDF file.
+inline void rewrite_text_attribute(const std::filesystem::path& path, const char* name,
+                                   const std::string& text) {
+  int id = -1;
+  ASSERT_EQ(nc_open(path.c_str(), NC_WRITE, &id), NC_NOERR);
+  ASSERT_EQ(nc_redef(id), NC_NOERR);
+  ASSERT_EQ(nc_put_att_text(id, NC_GLOBAL, name, text.size(), text.c_str()), NC_NOERR);
+  ASSERT_EQ(nc_close(id), NC_NOERR);
+}
+
 /// Removes the global attribute `name`.
 inline void delete_attribute(const std::filesystem::path& path, const char* name) {
   int id = -1;
