@@ -464,18 +464,12 @@ std::string read_config_text(const std::filesystem::path& path) {
   const auto cannot_read = [&](const std::string& reason) {
     return ConfigError(fmt::format("cannot read config file '{}': {}", path.string(), reason));
   };
-  // Out of descriptors or an I/O error is the machine's failure, not the file's (exit 1).
-  const auto unreadable = [&](int error) {
-    const std::string reason = std::generic_category().message(error);
-    if (is_system_failure(error))
-      throw SystemFailure(fmt::format("cannot read config file '{}': {}", path.string(), reason));
-    return cannot_read(reason);
-  };
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw cannot_read("is a directory");
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
                                                        &std::fclose);
-  if (!file) throw unreadable(errno);
+  // Out of descriptors or an I/O error is the machine's failure, not the file's (exit 1).
+  if (!file) throw_unreadable_input(path, errno, "read config file");
   std::string text;
   constexpr std::size_t kChunk = 1 << 16;
   std::vector<char> buffer(kChunk);
@@ -486,7 +480,7 @@ std::string read_config_text(const std::filesystem::path& path) {
     if (text.size() > kMaxConfigBytes)
       throw cannot_read(fmt::format("larger than {} bytes, not a case file", kMaxConfigBytes));
   }
-  if (std::ferror(file.get())) throw unreadable(errno);
+  if (std::ferror(file.get())) throw_unreadable_input(path, errno, "read config file");
   return text;
 }
 

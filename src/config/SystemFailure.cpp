@@ -27,9 +27,9 @@ bool is_system_failure(int error) {
   }
 }
 
-void throw_unreadable_input(const std::filesystem::path& path, int error) {
-  const std::string message =
-      fmt::format("cannot read '{}': {}", path.string(), std::generic_category().message(error));
+void throw_unreadable_input(const std::filesystem::path& path, int error, std::string_view action) {
+  const std::string message = fmt::format("cannot {} '{}': {}", action, path.string(),
+                                          std::generic_category().message(error));
   if (is_system_failure(error)) throw SystemFailure(message);
   throw ConfigError(message);
 }

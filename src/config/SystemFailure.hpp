@@ -4,6 +4,7 @@
 // file descriptors is no bad input, and ends the command with exit 1, not 2.
 #include <filesystem>
 #include <stdexcept>
+#include <string_view>
 
 namespace ehlsim {
 
@@ -19,10 +20,11 @@ class SystemFailure : public std::runtime_error {
 /// ENFILE, ENOMEM, ENOBUFS, EAGAIN, EIO) rather than the file asked for.
 [[nodiscard]] bool is_system_failure(int error);
 
-/// Throws "cannot read '<path>': <strerror(error)>", a file of the user's
-/// input that could not be opened or read: SystemFailure when
+/// Throws "cannot <action> '<path>': <strerror(error)>", a file of the
+/// user's input that could not be opened or read: SystemFailure when
 /// is_system_failure(error), else ConfigError (a missing permission, ...).
-[[noreturn]] void throw_unreadable_input(const std::filesystem::path& path, int error);
+[[noreturn]] void throw_unreadable_input(const std::filesystem::path& path, int error,
+                                         std::string_view action = "read");
 
 /// Reads the regular file `path` to its end and throws SystemFailure "cannot
 /// read '<path>': <strerror>" where the machine cannot (EIO, ...); returns

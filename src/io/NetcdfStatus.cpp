@@ -78,13 +78,7 @@ void require_netcdf4_file(const std::filesystem::path& path, std::string_view ac
   std::array<char, kSignature.size()> head{};
   const std::size_t got = std::fread(head.data(), 1, head.size(), file.get());
   // An I/O error is no file of another format (/proc/self/mem: EIO at its first byte).
-  if (std::ferror(file.get())) {
-    const int error = errno;
-    const std::string message = fmt::format("cannot {} '{}': {}", action, path.string(),
-                                            std::generic_category().message(error));
-    if (is_system_failure(error)) throw SystemFailure(message);
-    throw std::runtime_error(message);
-  }
+  if (std::ferror(file.get())) throw_unreadable_input(path, errno, action);
   if (got == head.size() && std::equal(head.begin(), head.end(), kSignature.begin())) return;
   throw std::runtime_error(fmt::format(
       "cannot {} '{}': not a NetCDF-4 file (ehlsim reads and writes NetCDF-4/HDF5 only; the "
