@@ -52,6 +52,13 @@ void expect_bad_input(const Result& r, const std::string& message) {
   EXPECT_EQ(r.out, "");
 }
 
+/// A failed command: exit code 1 and exactly `message` on one line of stderr.
+void expect_failure(const Result& r, const std::string& message) {
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "ehlsim: error: " + message + "\n");
+  EXPECT_EQ(r.out, "");
+}
+
 TEST(Cli, UnknownKeyInFile) {
   TempDir dir;
   const std::string f = write_file(dir / "case.toml", "[case]\nMx = 20\n").string();
@@ -953,26 +960,19 @@ TEST(Cli, AnInputTheMachineCannotReadIsAFailureNotBadInput) {
   ASSERT_EQ(tiny_run(run, "--set time.T_end=0.2").exit_code, 0);
   fs::remove(run / "fields.nc");
   fs::create_symlink("/proc/self/mem", run / "fields.nc");
-  const Result spike = ehlsim("spike --quiet " + quote(run.string()));
-  EXPECT_EQ(spike.exit_code, 1);
-  EXPECT_EQ(spike.err, "ehlsim: error: cannot read '" + (run / "fields.nc").string() +
-                           "': Input/output error\n");
+  expect_failure(ehlsim("spike --quiet " + quote(run.string())),
+                 "cannot read '" + (run / "fields.nc").string() + "': Input/output error");
   EXPECT_FALSE(fs::exists(run / "spike_snapshots.csv"));
-  const Result restart =
-      ehlsim("impact --quiet --set grid.points=33 --restart /proc/self/mem --out " +
-             quote((dir / "again").string()));
-  EXPECT_EQ(restart.exit_code, 1);
-  EXPECT_EQ(restart.err,
-            "ehlsim: error: cannot read checkpoint '/proc/self/mem': Input/output error\n");
+  expect_failure(ehlsim("impact --quiet --set grid.points=33 --restart /proc/self/mem --out " +
+                        quote((dir / "again").string())),
+                 "cannot read checkpoint '/proc/self/mem': Input/output error");
   EXPECT_FALSE(fs::exists(dir / "again"));
   // run.json: libstdc++'s "basic_filebuf::underflow error reading the file", no path named.
   fs::remove(run / "fields.nc");
   fs::remove(run / "run.json");
   fs::create_symlink("/proc/self/mem", run / "run.json");
-  const Result json = ehlsim("spike --quiet " + quote(run.string()));
-  EXPECT_EQ(json.exit_code, 1);
-  EXPECT_EQ(json.err, "ehlsim: error: cannot read '" + (run / "run.json").string() +
-                          "': Input/output error\n");
+  expect_failure(ehlsim("spike --quiet " + quote(run.string())),
+                 "cannot read '" + (run / "run.json").string() + "': Input/output error");
 }
 
 TEST(Cli, SpikeFilesGoIntoTheRunOrADirectoryOfTheirOwn) {
